@@ -1,0 +1,161 @@
+"""Exact offset slider-crank kinematics in closed form, and the textbook series.
+
+Everything is written in a cylinder's local plane frame: ``c`` along the
+cylinder axis (away from the crank), ``n`` perpendicular to it, pointing 90°
+ahead in the direction of rotation; the crank axis is the origin. The local
+crank angle ψ is measured from the cylinder axis in the direction of rotation.
+
+Positions are returned with their first and second derivatives with respect
+to ψ (the transfer functions μ = dq/dψ and ν = d²q/dψ²). At constant crank
+speed ω the velocity of a point is μ·ω and its acceleration ν·ω², so every
+inertial load follows from the unit-speed values by the exact factor ω².
+
+Closure: the piston pin B travels along the line n = e (e = piston-pin offset
++ cylinder offset). With the crank pin A = r(cos ψ, sin ψ) and the lateral
+rise g = e − r sin ψ of the rod,
+
+    c_B = r cos ψ + S,   S = sqrt(l² − g²),   sin ϑ = g / l,
+
+where ϑ is the rod's angle from the cylinder axis. S > 0 for every ψ exactly
+when l > r + |e|, which the scene validation guarantees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import binom
+
+
+@dataclass(frozen=True)
+class SliderCrank:
+    """Positions and ψ-derivatives of an offset slider-crank (arrays broadcast
+    over cylinders and angles).
+
+    Attributes
+    ----------
+    a, da, dda : tuple of ndarray
+        Crank-pin centre A = (c, n) and its first and second derivatives [m].
+    b, db, ddb : ndarray
+        Axial position c_B of the piston pin and its derivatives [m]; the pin's
+        lateral position is the constant offset ``e``.
+    e : ndarray
+        Offset of the piston-pin path from the crank axis [m].
+    rod_angle, drod_angle, ddrod_angle : ndarray
+        Rod angle ϑ [rad] from the cylinder axis (towards +n) and derivatives.
+    """
+
+    a: tuple[np.ndarray, np.ndarray]
+    da: tuple[np.ndarray, np.ndarray]
+    dda: tuple[np.ndarray, np.ndarray]
+    b: np.ndarray
+    db: np.ndarray
+    ddb: np.ndarray
+    e: np.ndarray
+    rod_angle: np.ndarray
+    drod_angle: np.ndarray
+    ddrod_angle: np.ndarray
+
+    def rod_point(self, along: np.ndarray, lateral: np.ndarray, length: np.ndarray):
+        """A point fixed in the rod: ``along`` the axis from the big end and
+        ``lateral`` off it (towards +n at TDC).
+
+        Returns (position, first derivative, second derivative), each a (c, n)
+        pair. The point is the affine combination
+        A + (along/l)(B − A) + (lateral/l)·R90(B − A), R90(c, n) = (−n, c),
+        so it is exact for the exact closure and follows the piston pin when
+        the series model is used.
+        """
+        f = along / length
+        q = lateral / length
+
+        def combine(ac, an, bc, bn):
+            dc, dn = bc - ac, bn - an
+            return ac + f * dc - q * dn, an + f * dn + q * dc
+
+        return (
+            combine(*self.a, self.b, self.e),
+            combine(*self.da, self.db, 0.0),
+            combine(*self.dda, self.ddb, 0.0),
+        )
+
+
+def crank_pin(psi: np.ndarray, r: np.ndarray):
+    """Crank-pin centre and its ψ-derivatives: A = r(cos ψ, sin ψ), A'' = −A."""
+    c, s = r * np.cos(psi), r * np.sin(psi)
+    return (c, s), (-s, c), (-c, -s)
+
+
+def slider_crank(
+    psi: np.ndarray,
+    r: np.ndarray,
+    l: np.ndarray,
+    e: np.ndarray,
+    series_harmonics: int | None = None,
+) -> SliderCrank:
+    """Offset slider-crank positions and transfer functions.
+
+    Parameters
+    ----------
+    psi : ndarray
+        Local crank angle ψ [rad] (broadcast against the geometry).
+    r, l, e : ndarray
+        Crank radius, rod length and total pin-path offset [m].
+    series_harmonics : int, optional
+        If given, the piston-pin travel uses the binomial series of
+        S = l·sqrt(1 − u), u = (g/l)², truncated so that it holds harmonics up
+        to this order (N = 2: the textbook first/second-order model with
+        A₂ = λ). The rod's angular motion stays exact.
+
+    Returns
+    -------
+    SliderCrank
+    """
+    a, da, dda = crank_pin(psi, r)
+    g = e - a[1]
+    dg = -a[0]
+    ddg = a[1]
+    root = np.sqrt(l * l - g * g)
+    droot = -g * dg / root
+    ddroot = -(dg * dg + g * ddg) / root - (g * dg) ** 2 / root**3
+    if series_harmonics is None:
+        s, ds, dds = root, droot, ddroot
+    else:
+        s, ds, dds = _series_root(g, dg, ddg, l, series_harmonics)
+    rod_angle = np.arcsin(g / l)
+    drod = dg / root
+    ddrod = (ddg * root - dg * droot) / root**2
+    return SliderCrank(
+        a=a, da=da, dda=dda,
+        b=a[0] + s, db=da[0] + ds, ddb=dda[0] + dds,
+        e=np.broadcast_to(e, np.shape(g)),
+        rod_angle=rod_angle, drod_angle=drod, ddrod_angle=ddrod,
+    )
+
+
+def _series_root(g, dg, ddg, l, harmonics: int):
+    """S = l·Σ_{j≤J} C(1/2, j)(−u)^j with u = (g/l)², J = ⌊N/2⌋, and its
+    ψ-derivatives (chain rule through u)."""
+    order = harmonics // 2
+    coeffs = np.array([binom(0.5, j) * (-1) ** j for j in range(order + 1)])
+    u = (g / l) ** 2
+    du = 2 * g * dg / l**2
+    ddu = 2 * (dg * dg + g * ddg) / l**2
+    p = np.polynomial.polynomial
+    value = p.polyval(u, coeffs)
+    d1 = p.polyval(u, p.polyder(coeffs, 1)) if order >= 1 else np.zeros_like(u)
+    d2 = p.polyval(u, p.polyder(coeffs, 2)) if order >= 2 else np.zeros_like(u)
+    return l * value, l * d1 * du, l * (d2 * du * du + d1 * ddu)
+
+
+def decay_rate(r: np.ndarray, l: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Geometric decay rate ρ of the slider-crank harmonics.
+
+    S(ψ) is analytic in a strip around the real axis bounded by the nearest
+    complex ψ where g = ±l, i.e. sin ψ = (l − |e|)/r = σ > 1, so its Fourier
+    coefficients decay like ρⁿ with ρ = σ − sqrt(σ² − 1) (for e = 0 this is
+    (1 − sqrt(1 − λ²))/λ, and ρ² is the q of the design notes).
+    """
+    sigma = (l - np.abs(e)) / r
+    return sigma - np.sqrt(sigma * sigma - 1)

@@ -1,0 +1,560 @@
+"""Scene files: schema, units, defaults with per-cylinder overrides, validation.
+
+A scene is a TOML file (or an equivalent mapping) describing one engine. It is
+read once into a frozen :class:`Scene` holding plain SI floats; nothing
+downstream parses units or checks input again. Every problem found is
+collected and reported together in a :class:`SceneError`, each naming the
+source, the key path, the offending value and the rule it breaks.
+
+The format is documented in ``docs/scenes.md``; keep the two in step.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+from .units import QuantityError, to_si
+
+EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque")
+ROD_MODELS = ("rigid", "two_point", "two_point_couple")
+PISTON_MODELS = ("exact", "series")
+ROTATIONS = ("clockwise", "counterclockwise")
+
+DEFAULT_ACCURACY = 1e-12
+DEFAULT_MAX_ORDER = 12
+
+
+# --------------------------------------------------------------------------
+# Problems
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a scene: where, what value, which rule."""
+
+    source: str
+    key: str
+    value: Any
+    rule: str
+
+    def __str__(self) -> str:
+        shown = "" if self.value is _MISSING else f" = {self.value!r}"
+        return f"{self.source}: {self.key}{shown}: {self.rule}"
+
+
+class SceneError(ValueError):
+    """A scene that cannot be used; ``problems`` lists every reason."""
+
+    def __init__(self, problems: list[Problem]):
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class _Missing:
+    def __repr__(self) -> str:
+        return "<missing>"
+
+
+_MISSING = _Missing()
+
+
+# --------------------------------------------------------------------------
+# The validated scene (SI units throughout)
+
+
+@dataclass(frozen=True)
+class Piston:
+    """Piston group: mass [kg] and CG offset from the piston-pin axis [m]
+    (``cg_axial`` along the cylinder axis away from the crank, ``cg_lateral``
+    perpendicular to it, positive in the direction of rotation)."""
+
+    mass: float
+    cg_axial: float = 0.0
+    cg_lateral: float = 0.0
+
+
+@dataclass(frozen=True)
+class ConRod:
+    """Connecting rod as a rigid body.
+
+    ``cg_from_big_end`` [m] is measured along the rod axis from the crank-pin
+    centre; ``cg_lateral`` [m] is the CG's distance from the rod axis (positive
+    to the side the direction of rotation points to when the rod is at top dead
+    centre); ``inertia`` [kg m^2] is about the CG, ``None`` when the rod was
+    given only as a two-point split.
+    """
+
+    mass: float
+    cg_from_big_end: float
+    cg_lateral: float = 0.0
+    inertia: float | None = None
+
+    def split(self, length: float) -> tuple[float, float]:
+        """Big-end and small-end masses [kg] keeping mass and CG."""
+        small = self.mass * self.cg_from_big_end / length
+        return self.mass - small, small
+
+
+@dataclass(frozen=True)
+class Unbalance:
+    """A rotating static unbalance: mass x radius [kg m] at ``angle`` [rad]
+    (in the direction of rotation) and axial position ``x`` [m]."""
+
+    unbalance: float
+    angle: float
+    x: float
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """One cylinder with its own throw, bank, position, geometry and masses."""
+
+    label: str
+    throw: float
+    bank: float
+    x: float
+    crank_radius: float
+    rod_length: float
+    pin_offset: float
+    cylinder_offset: float
+    piston: Piston
+    rod: ConRod
+    #: Unbalances on this throw; angles relative to the throw, x absolute.
+    throw_unbalances: tuple[Unbalance, ...] = ()
+
+    @property
+    def offset(self) -> float:
+        """Total offset [m] of the piston-pin path from the crank axis."""
+        return self.pin_offset + self.cylinder_offset
+
+
+@dataclass(frozen=True)
+class Model:
+    """What to simulate and with which approximations."""
+
+    effects: frozenset[str] = frozenset(EFFECTS)
+    piston: str = "exact"
+    series_harmonics: int = 2
+    rod: str = "rigid"
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """Either a fixed number of samples per revolution or a target accuracy."""
+
+    samples_per_rev: int | None = None
+    accuracy: float | None = DEFAULT_ACCURACY
+    max_order: int = DEFAULT_MAX_ORDER
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated engine description in SI units.
+
+    Build one with :func:`load_scene`.
+    """
+
+    name: str
+    cycle: int
+    rotation: str
+    speeds: tuple[float, ...]
+    reference_point: tuple[float, float, float]
+    cylinders: tuple[Cylinder, ...]
+    crankshaft_unbalances: tuple[Unbalance, ...] = ()
+    model: Model = field(default_factory=Model)
+    sampling: Sampling = field(default_factory=Sampling)
+    description: str = ""
+    source: str = "<mapping>"
+    source_text: str = ""
+
+    @property
+    def sense(self) -> int:
+        """+1 if the crank turns about +x (counterclockwise seen from the
+        front), -1 if clockwise seen from the front."""
+        return 1 if self.rotation == "counterclockwise" else -1
+
+
+# --------------------------------------------------------------------------
+# Reading
+
+
+def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
+    """Read and validate a scene.
+
+    Parameters
+    ----------
+    path_or_mapping : path-like or mapping
+        A TOML scene file, or a mapping with the same structure (as returned
+        by :func:`tomllib.load`).
+
+    Returns
+    -------
+    Scene
+        The validated scene, all quantities in SI units.
+
+    Raises
+    ------
+    SceneError
+        Listing every problem found (file, key path, value, rule).
+    FileNotFoundError
+        If a path is given and does not exist.
+    """
+    if isinstance(path_or_mapping, Mapping):
+        import tomli_w
+
+        data = dict(path_or_mapping)
+        source = "<mapping>"
+        try:
+            text = tomli_w.dumps(data)
+        except (TypeError, ValueError):
+            text = repr(data)
+    else:
+        path = Path(path_or_mapping)
+        source = str(path)
+        text = path.read_text(encoding="utf-8")
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError([Problem(source, "(file)", _MISSING, f"TOML syntax error: {exc}")]) from None
+    reader = _Reader(source)
+    scene = reader.scene(data, text)
+    if reader.problems:
+        raise SceneError(reader.problems)
+    return scene
+
+
+_TOP_KEYS = {
+    "engine", "model", "sampling", "geometry", "piston", "rod",
+    "throw_unbalance", "cylinder", "crankshaft_unbalance",
+}
+_ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point"}
+_MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
+_SAMPLING_KEYS = {"samples_per_rev", "accuracy", "max_order"}
+_GEOMETRY_KEYS = {"crank_radius", "rod_length", "pin_offset", "cylinder_offset"}
+_PISTON_KEYS = {"mass", "cg_offset"}
+_ROD_RIGID_KEYS = {"mass", "cg_from_big_end", "cg_offset", "inertia"}
+_ROD_SPLIT_KEYS = {"mass_big_end", "mass_small_end"}
+_CYLINDER_KEYS = {"label", "throw", "bank", "axial_position", "geometry", "piston", "rod", "throw_unbalance"}
+_UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle"}
+
+
+class _Reader:
+    """Walks the raw mapping, converts units, and collects problems."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.problems: list[Problem] = []
+
+    # -- primitives --------------------------------------------------------
+
+    def fail(self, key: str, value: Any, rule: str) -> None:
+        problem = Problem(self.source, key, value, rule)
+        if problem not in self.problems:  # a shared key is checked once per cylinder
+            self.problems.append(problem)
+
+    def table(self, parent: Mapping, key: str, path: str, allowed: set[str], required: bool = False) -> dict:
+        value = parent.get(key, _MISSING)
+        if value is _MISSING:
+            if required:
+                self.fail(path, _MISSING, "missing required table")
+            return {}
+        if not isinstance(value, Mapping):
+            self.fail(path, value, "must be a table")
+            return {}
+        self.unknown(value, path, allowed)
+        return dict(value)
+
+    def unknown(self, table: Mapping, path: str, allowed: set[str]) -> None:
+        for key in table:
+            if key not in allowed:
+                hint = _closest(key, allowed)
+                self.fail(_join(path, key), table[key],
+                          "unknown key" + (f" (did you mean {hint!r}?)" if hint else "")
+                          + f"; allowed: {', '.join(sorted(allowed))}")
+
+    def quantity(self, table: Mapping, key: str, path: str, dimension: str, default: Any = _MISSING,
+                 positive: bool = False, nonnegative: bool = False) -> float:
+        value = table.get(key, default)
+        where = _join(path, key)
+        if value is _MISSING:
+            self.fail(where, _MISSING, "missing required key")
+            return math.nan
+        try:
+            si = to_si(value, dimension)
+        except QuantityError as exc:
+            self.fail(where, value, str(exc))
+            return math.nan
+        if dimension == "angle" and not isinstance(value, str) and abs(si) > 2 * math.pi:
+            self.fail(where, value, "plain numbers are radians; this looks like degrees, write e.g. "
+                      f"\"{value} deg\"")
+            return math.nan
+        if positive and not si > 0:
+            self.fail(where, value, "must be positive")
+        elif nonnegative and not si >= 0:
+            self.fail(where, value, "must not be negative")
+        return si
+
+    def choice(self, table: Mapping, key: str, path: str, options: tuple, default: Any) -> Any:
+        value = table.get(key, default)
+        if value not in options:
+            self.fail(_join(path, key), value, f"must be one of {', '.join(map(repr, options))}")
+            return default
+        return value
+
+    def integer(self, table: Mapping, key: str, path: str, default: Any, minimum: int) -> int | None:
+        value = table.get(key, default)
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.fail(_join(path, key), value, "must be an integer")
+            return default
+        if value < minimum:
+            self.fail(_join(path, key), value, f"must be at least {minimum}")
+            return default
+        return value
+
+    def string(self, table: Mapping, key: str, path: str, default: Any = _MISSING) -> str:
+        value = table.get(key, default)
+        if value is _MISSING:
+            self.fail(_join(path, key), _MISSING, "missing required key")
+            return ""
+        if not isinstance(value, str):
+            self.fail(_join(path, key), value, "must be a string")
+            return ""
+        return value
+
+    def quantity_list(self, table: Mapping, key: str, path: str, dimension: str, length: int,
+                      default: Any) -> tuple[float, ...]:
+        value = table.get(key, default)
+        if not isinstance(value, list) or len(value) != length:
+            self.fail(_join(path, key), value, f"must be a list of {length} quantities")
+            return (math.nan,) * length
+        items = {f"{key}[{i + 1}]": v for i, v in enumerate(value)}
+        return tuple(self.quantity(items, k, path, dimension) for k in items)
+
+    # -- sections ----------------------------------------------------------
+
+    def scene(self, data: Mapping, text: str) -> Scene:
+        self.unknown(data, "", _TOP_KEYS)
+        engine = self.table(data, "engine", "engine", _ENGINE_KEYS, required=True)
+        name = self.string(engine, "name", "engine")
+        description = self.string(engine, "description", "engine", "")
+        cycle = engine.get("cycle", 4)
+        if cycle not in (2, 4) or isinstance(cycle, bool):
+            self.fail("engine.cycle", cycle, "must be 2 or 4 (strokes)")
+            cycle = 4
+        rotation = self.choice(engine, "rotation", "engine", ROTATIONS, "clockwise")
+        speeds = self.speeds(engine)
+        reference = self.quantity_list(engine, "reference_point", "engine", "length", 3, [0, 0, 0])
+
+        model = self.model(self.table(data, "model", "model", _MODEL_KEYS))
+        sampling = self.sampling(self.table(data, "sampling", "sampling", _SAMPLING_KEYS))
+
+        shared = {
+            "geometry": self.table(data, "geometry", "geometry", _GEOMETRY_KEYS),
+            "piston": self.table(data, "piston", "piston", _PISTON_KEYS),
+            "rod": self.table(data, "rod", "rod", _ROD_RIGID_KEYS | _ROD_SPLIT_KEYS),
+        }
+        shared_unbalances = data.get("throw_unbalance", [])
+        cylinders = self.cylinders(data.get("cylinder", _MISSING), shared, shared_unbalances, model)
+        crankshaft = tuple(self.unbalances(data.get("crankshaft_unbalance", []), "crankshaft_unbalance",
+                                           "axial_position"))
+        return Scene(name=name, description=description, cycle=cycle, rotation=rotation, speeds=speeds,
+                     reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft,
+                     model=model, sampling=sampling, source=self.source, source_text=text)
+
+    def speeds(self, engine: Mapping) -> tuple[float, ...]:
+        raw = engine.get("speed", _MISSING)
+        if isinstance(raw, list):
+            if not raw:
+                self.fail("engine.speed", raw, "give at least one speed")
+            items = {f"speed[{i + 1}]": v for i, v in enumerate(raw)}
+            speeds = tuple(self.quantity(items, key, "engine", "speed", positive=True) for key in items)
+        else:
+            speeds = (self.quantity(engine, "speed", "engine", "speed", positive=True),)
+        finite = [s for s in speeds if math.isfinite(s)]
+        if len(set(finite)) != len(finite):
+            self.fail("engine.speed", raw, "speeds must be distinct")
+        return speeds
+
+    def model(self, table: Mapping) -> Model:
+        effects_raw = table.get("effects", list(EFFECTS))
+        effects: set[str] = set()
+        if not isinstance(effects_raw, list) or not all(isinstance(e, str) for e in effects_raw):
+            self.fail("model.effects", effects_raw, "must be a list of effect names")
+        else:
+            for effect in effects_raw:
+                if effect not in EFFECTS:
+                    hint = _closest(effect, set(EFFECTS))
+                    self.fail("model.effects", effect, "unknown effect" + (f" (did you mean {hint!r}?)" if hint else "")
+                              + f"; known: {', '.join(EFFECTS)}")
+                effects.add(effect)
+            if len(effects) != len(effects_raw):
+                self.fail("model.effects", effects_raw, "an effect is listed twice")
+        piston = self.choice(table, "piston", "model", PISTON_MODELS, "exact")
+        harmonics = self.integer(table, "series_harmonics", "model", 2, minimum=1)
+        if "series_harmonics" in table and piston != "series":
+            self.fail("model.series_harmonics", table["series_harmonics"], 'only used with piston = "series"')
+        rod = self.choice(table, "rod", "model", ROD_MODELS, "rigid")
+        return Model(effects=frozenset(effects & set(EFFECTS)), piston=piston, series_harmonics=harmonics or 2, rod=rod)
+
+    def sampling(self, table: Mapping) -> Sampling:
+        max_order = self.integer(table, "max_order", "sampling", DEFAULT_MAX_ORDER, minimum=1)
+        samples = self.integer(table, "samples_per_rev", "sampling", None, minimum=8)
+        accuracy = None
+        if "accuracy" in table:
+            if samples is not None:
+                self.fail("sampling.accuracy", table["accuracy"], "give samples_per_rev or accuracy, not both")
+            accuracy = self.quantity(table, "accuracy", "sampling", "dimensionless", positive=True)
+            if math.isfinite(accuracy) and not 1e-16 <= accuracy < 0.1:
+                self.fail("sampling.accuracy", table["accuracy"], "must lie in [1e-16, 0.1) (relative error)")
+        elif samples is None:
+            accuracy = DEFAULT_ACCURACY
+        if samples is not None and max_order is not None and samples < 2 * max_order + 2:
+            self.fail("sampling.samples_per_rev", samples,
+                      f"must be at least 2*max_order + 2 = {2 * max_order + 2} to resolve order {max_order}")
+        return Sampling(samples_per_rev=samples, accuracy=accuracy, max_order=max_order or DEFAULT_MAX_ORDER)
+
+    def cylinders(self, raw: Any, shared: dict, shared_unbalances: Any, model: Model) -> tuple[Cylinder, ...]:
+        if raw is _MISSING:
+            self.fail("cylinder", _MISSING, "missing: give at least one [[cylinder]]")
+            return ()
+        if not isinstance(raw, list) or not raw or not all(isinstance(c, Mapping) for c in raw):
+            self.fail("cylinder", raw, "must be a non-empty array of tables ([[cylinder]])")
+            return ()
+        cylinders = []
+        for i, entry in enumerate(raw):
+            path = f"cylinder[{i + 1}]"
+            self.unknown(entry, path, _CYLINDER_KEYS)
+            cylinders.append(self.cylinder(entry, path, i, shared, shared_unbalances, model))
+        self.check_distinct(cylinders)
+        return tuple(cylinders)
+
+    def cylinder(self, entry: Mapping, path: str, index: int, shared: dict, shared_unbalances: Any,
+                 model: Model) -> Cylinder:
+        label = entry.get("label", str(index + 1))
+        if not isinstance(label, (str, int)) or isinstance(label, bool):
+            self.fail(_join(path, "label"), label, "must be a string")
+        label = str(label)
+        throw = self.quantity(entry, "throw", path, "angle", default=0.0)
+        bank = self.quantity(entry, "bank", path, "angle", default=0.0)
+        x = self.quantity(entry, "axial_position", path, "length", default=0.0)
+
+        def merged(name: str, allowed: set[str]) -> tuple[dict, dict[str, str]]:
+            """Shared table overlaid by the cylinder's own, with the section
+            each key was written in (missing keys are reported at the shared
+            section, once for all cylinders)."""
+            own = self.table(entry, name, _join(path, name), allowed)
+            where = {k: _join(path, name) if k in own else name for k in {**shared[name], **own}}
+            return {**shared[name], **own}, where
+
+        geometry, gwhere = merged("geometry", _GEOMETRY_KEYS)
+        r = self.quantity(geometry, "crank_radius", gwhere.get("crank_radius", "geometry"), "length", positive=True)
+        l = self.quantity(geometry, "rod_length", gwhere.get("rod_length", "geometry"), "length", positive=True)
+        e = self.quantity(geometry, "pin_offset", gwhere.get("pin_offset", "geometry"), "length", default=0.0)
+        h = self.quantity(geometry, "cylinder_offset", gwhere.get("cylinder_offset", "geometry"), "length", default=0.0)
+        if all(math.isfinite(v) for v in (r, l, e, h)) and r > 0 and l > 0 and not l > r + abs(e + h):
+            self.fail(_join(path, "geometry.rod_length"), geometry.get("rod_length"),
+                      f"the crank train cannot assemble: rod length {l * 1e3:.6g} mm must exceed crank radius "
+                      f"+ |pin offset + cylinder offset| = {(r + abs(e + h)) * 1e3:.6g} mm")
+
+        piston_t, pwhere = merged("piston", _PISTON_KEYS)
+        piston_mass = self.quantity(piston_t, "mass", pwhere.get("mass", "piston"), "mass", positive=True)
+        pcg = self.pair_at(piston_t, "cg_offset", pwhere, "piston")
+        piston = Piston(piston_mass, *pcg)
+
+        rod_t, rwhere = merged("rod", _ROD_RIGID_KEYS | _ROD_SPLIT_KEYS)
+        rod = self.rod(rod_t, rwhere, path, l, model)
+
+        unbalances = entry.get("throw_unbalance", shared_unbalances)
+        upath = _join(path, "throw_unbalance") if "throw_unbalance" in entry else "throw_unbalance"
+        throw_unbalances = tuple(
+            Unbalance(u.unbalance, u.angle, x + u.x) for u in self.unbalances(unbalances, upath, "axial_offset")
+        )
+        return Cylinder(label=label, throw=throw, bank=bank, x=x, crank_radius=r, rod_length=l, pin_offset=e,
+                        cylinder_offset=h, piston=piston, rod=rod, throw_unbalances=throw_unbalances)
+
+    def pair_at(self, table: dict, key: str, where: dict[str, str], section: str) -> tuple[float, float]:
+        return self.quantity_list(table, key, where.get(key, section), "length", 2, [0, 0])  # type: ignore
+
+    def rod(self, table: dict, where: dict[str, str], path: str, length: float, model: Model) -> ConRod:
+        """A rigid rod, or a two-point split converted to mass and CG."""
+        split_keys = _ROD_SPLIT_KEYS & table.keys()
+        rigid_keys = _ROD_RIGID_KEYS & table.keys()
+        section = _join(path, "rod")
+        if split_keys and rigid_keys:
+            self.fail(section, sorted(table), "give the rod either as a rigid body (mass, cg_from_big_end, "
+                      "inertia) or as a two-point split (mass_big_end, mass_small_end), not both")
+            return ConRod(math.nan, math.nan)
+        if split_keys:
+            big = self.quantity(table, "mass_big_end", where.get("mass_big_end", "rod"), "mass", positive=True)
+            small = self.quantity(table, "mass_small_end", where.get("mass_small_end", "rod"), "mass", positive=True)
+            if model.rod != "two_point":
+                self.fail("model.rod", model.rod, f"{section} is given as a two-point split, which has no moment "
+                          "of inertia; use rod = \"two_point\" or give mass, cg_from_big_end and inertia")
+            return ConRod(big + small, length * small / (big + small))
+        mass = self.quantity(table, "mass", where.get("mass", "rod"), "mass", positive=True)
+        cg = self.quantity(table, "cg_from_big_end", where.get("cg_from_big_end", "rod"), "length", nonnegative=True)
+        if math.isfinite(cg) and math.isfinite(length) and cg > length:
+            self.fail(_join(where["cg_from_big_end"], "cg_from_big_end"), table["cg_from_big_end"],
+                      f"must not exceed the rod length {length * 1e3:.6g} mm")
+        lateral = self.quantity(table, "cg_offset", where.get("cg_offset", "rod"), "length", default=0.0)
+        inertia = None
+        if "inertia" in table:
+            inertia = self.quantity(table, "inertia", where.get("inertia", "rod"), "inertia", positive=True)
+        elif model.rod != "two_point":
+            self.fail(_join(section, "inertia"), _MISSING,
+                      f"missing: model.rod = {model.rod!r} needs the rod's moment of inertia about its CG")
+        return ConRod(mass, cg, lateral, inertia)
+
+    def unbalances(self, raw: Any, path: str, position_key: str) -> list[Unbalance]:
+        entries = [raw] if isinstance(raw, Mapping) else raw
+        if not isinstance(entries, list) or not all(isinstance(u, Mapping) for u in entries):
+            self.fail(path, raw, "must be a table or an array of tables")
+            return []
+        result = []
+        for i, entry in enumerate(entries):
+            where = path if isinstance(raw, Mapping) else f"{path}[{i + 1}]"
+            self.unknown(entry, where, _UNBALANCE_KEYS | {position_key})
+            if "unbalance" in entry and ("mass" in entry or "radius" in entry):
+                self.fail(where, sorted(entry), "give unbalance (mass x radius) or mass and radius, not both")
+                continue
+            if "unbalance" in entry or not ("mass" in entry or "radius" in entry):
+                u = self.quantity(entry, "unbalance", where, "unbalance", positive=True)
+            else:
+                u = (self.quantity(entry, "mass", where, "mass", positive=True)
+                     * self.quantity(entry, "radius", where, "length", positive=True))
+            angle = self.quantity(entry, "angle", where, "angle", default=0.0)
+            x = self.quantity(entry, position_key, where, "length", default=0.0)
+            result.append(Unbalance(u, angle, x))
+        return result
+
+    def check_distinct(self, cylinders: list[Cylinder]) -> None:
+        seen_labels: dict[str, int] = {}
+        seen_places: dict[tuple, int] = {}
+        for i, c in enumerate(cylinders, start=1):
+            if c.label in seen_labels:
+                self.fail(f"cylinder[{i}].label", c.label, f"duplicate of cylinder[{seen_labels[c.label]}]")
+            seen_labels.setdefault(c.label, i)
+            place = (round(math.remainder(c.throw, 2 * math.pi), 12), round(math.remainder(c.bank, 2 * math.pi), 12),
+                     round(c.x, 12))
+            if place in seen_places:
+                self.fail(f"cylinder[{i}]", {"throw": c.throw, "bank": c.bank, "axial_position": c.x},
+                          f"duplicate cylinder: same throw, bank and axial position as cylinder[{seen_places[place]}]")
+            seen_places.setdefault(place, i)
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def _closest(word: str, options: set[str]) -> str | None:
+    import difflib
+
+    matches = difflib.get_close_matches(word, sorted(options), n=1, cutoff=0.6)
+    return matches[0] if matches else None

@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import binom
 
 
 @dataclass(frozen=True)
@@ -138,7 +137,9 @@ def _series_root(g, dg, ddg, l, harmonics: int):
     """S = l·Σ_{j≤J} C(1/2, j)(−u)^j with u = (g/l)², J = ⌊N/2⌋, and its
     ψ-derivatives (chain rule through u)."""
     order = harmonics // 2
-    coeffs = np.array([binom(0.5, j) * (-1) ** j for j in range(order + 1)])
+    coeffs = np.ones(order + 1)
+    for j in range(1, order + 1):  # (−1)^j·C(1/2, j) by its recurrence
+        coeffs[j] = -coeffs[j - 1] * (0.5 - (j - 1)) / j
     u = (g / l) ** 2
     du = 2 * g * dg / l**2
     ddu = 2 * (dg * dg + g * ddg) / l**2

@@ -1,0 +1,75 @@
+"""The whole pipeline in one call: scene -> time domain -> orders, as a DataTree."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._version import __version__
+from .orders import order_spectrum
+from .scene import Scene
+from .timedomain import CONVENTIONS, simulate
+
+
+def scene_dataset(scene: Scene):
+    """The scene as a Dataset: one row per cylinder (SI units) and the scene
+    text in the ``scene_toml`` attribute, for provenance."""
+    import xarray as xr
+
+    cyls = scene.cylinders
+
+    def var(values, units, long_name):
+        return ("cylinder", np.asarray(values, dtype=float), {"units": units, "long_name": long_name})
+
+    data = {
+        "throw": var([c.throw for c in cyls], "rad", "throw angle relative to throw 1"),
+        "bank": var([c.bank for c in cyls], "rad", "bank angle of the cylinder axis from +z"),
+        "axial_position": var([c.x for c in cyls], "m", "axial position x of the cylinder plane"),
+        "crank_radius": var([c.crank_radius for c in cyls], "m", "crank radius"),
+        "rod_length": var([c.rod_length for c in cyls], "m", "con-rod length"),
+        "pin_offset": var([c.pin_offset for c in cyls], "m", "piston-pin offset"),
+        "cylinder_offset": var([c.cylinder_offset for c in cyls], "m", "cylinder offset (desaxe)"),
+        "piston_mass": var([c.piston.mass for c in cyls], "kg", "piston group mass"),
+        "rod_mass": var([c.rod.mass for c in cyls], "kg", "con-rod mass"),
+        "rod_cg": var([c.rod.cg_from_big_end for c in cyls], "m", "con-rod CG from the big end"),
+        "rod_inertia": var([np.nan if c.rod.inertia is None else c.rod.inertia for c in cyls], "kg m2",
+                           "con-rod moment of inertia about its CG"),
+    }
+    coords = {"cylinder": ("cylinder", [c.label for c in cyls], {"long_name": "cylinder label"})}
+    return xr.Dataset(data, coords, attrs={
+        "engine": scene.name,
+        "description": scene.description,
+        "source": scene.source,
+        "scene_toml": scene.source_text,
+    })
+
+
+def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy"):
+    """Run the pipeline: exact time-domain loads and their order spectrum.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`harmbal.load_scene`.
+    per_cylinder : bool, default False
+        Keep each cylinder's time-domain contribution.
+    backend : {"scipy", "numpy", "pyfftw"}
+        FFT implementation.
+
+    Returns
+    -------
+    xarray.DataTree
+        Groups ``/scene`` (cylinder table and scene text), ``/time``
+        (:func:`harmbal.simulate`) and ``/orders``
+        (:func:`harmbal.order_spectrum`).
+    """
+    import xarray as xr
+
+    time = simulate(scene, per_cylinder=per_cylinder)
+    orders = order_spectrum(time, backend=backend)
+    root = xr.Dataset(attrs={
+        "title": f"harmbal analysis: {scene.name}",
+        "engine": scene.name,
+        "harmbal_version": __version__,
+        "conventions": CONVENTIONS,
+    })
+    return xr.DataTree.from_dict({"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders})

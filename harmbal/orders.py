@@ -1,0 +1,157 @@
+"""Order spectrum: one-sided phasors per order of crank speed, the rotating
+(co/counter) split of transverse vectors, and a spectral-tail error estimate.
+
+Conventions (also in the dataset attributes and docs/conventions.md):
+
+* A signal s(θ) sampled over one revolution is written
+  s(θ) = Σ_k Re(C_k·e^{ikθ}); |C_k| is the peak amplitude of order k and
+  arg C_k its phase relative to θ = 0. C_0 is the mean.
+* A transverse vector (F_y, F_z) is written w = F_z + i·F_t, where t points
+  90° ahead of +z in the direction of rotation (t = +y for an engine turning
+  clockwise seen from the front, −y otherwise), so angles in the w-plane are
+  measured like crank angles. Per order, w(θ) = P_co·e^{ikθ} + P_counter·e^{−ikθ}:
+  P_co turns with the crank, P_counter against it; both are evaluated at θ = 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+FFT_BACKENDS = ("scipy", "numpy", "pyfftw")
+
+#: Relative tolerance (of the single-body load scale) below which an order
+#: component is reported as balanced: its phase would be round-off noise.
+BALANCED_RTOL = 1e-10
+
+ROTATION = ("co", "counter")
+
+
+def rfft(values: np.ndarray, backend: str = "scipy", workers: int | None = None) -> np.ndarray:
+    """Real FFT along the last axis with the chosen backend.
+
+    ``"scipy"`` (scipy.fft, default), ``"numpy"`` or ``"pyfftw"`` (optional,
+    GPL: install ``harmbal[fftw]``). All give the same transform up to
+    round-off.
+    """
+    if backend == "scipy":
+        import scipy.fft
+
+        return scipy.fft.rfft(values, axis=-1, workers=workers)
+    if backend == "numpy":
+        return np.fft.rfft(values, axis=-1)
+    if backend == "pyfftw":
+        try:
+            import pyfftw.interfaces.scipy_fft as fftw
+        except ImportError:
+            raise ImportError("the pyfftw backend needs pyFFTW: pip install 'harmbal[fftw]'") from None
+        return fftw.rfft(values, axis=-1, workers=workers or 1)
+    raise ValueError(f"unknown FFT backend {backend!r}; choose one of {', '.join(FFT_BACKENDS)}")
+
+
+def phasors(values: np.ndarray, backend: str = "scipy", workers: int | None = None) -> np.ndarray:
+    """One-sided phasors C_0 … C_{N/2} of samples over one period (last axis)."""
+    n = values.shape[-1]
+    spectrum = rfft(values, backend, workers) / n
+    spectrum[..., 1:] *= 2
+    if n % 2 == 0:
+        spectrum[..., -1] /= 2  # the Nyquist term has no mirror image
+    return spectrum
+
+
+def rotating_split(z: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Co- and counter-rotating phasors of w = z + i·t from the per-order
+    phasors Z and T of its components (order along the last axis, starting at
+    0). Order 0 is a fixed vector, reported as co-rotating."""
+    co = (z + 1j * t) / 2
+    counter = np.conj(z - 1j * t) / 2
+    co[..., 0] = z[..., 0] + 1j * t[..., 0]
+    counter[..., 0] = 0
+    return co, counter
+
+
+def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", workers: int | None = None):
+    """Order components of a time-domain dataset.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`harmbal.simulate`: ``force`` and ``moment`` over one
+        revolution of ``angle``.
+    max_order : int, optional
+        Highest order kept; default the scene's ``max_order`` (``ds.attrs``).
+    backend : {"scipy", "numpy", "pyfftw"}
+        FFT implementation.
+    workers : int, optional
+        Threads for the scipy and pyfftw backends.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims ``order`` (0 … max_order), ``axis`` and ``rotation`` (co,
+        counter), plus ``speed`` if present. Complex ``force`` [N] and
+        ``moment`` [N m]: phasors C_k with s(θ) = Σ Re(C_k e^{ikθ}).
+        Complex ``force_rotating`` and ``moment_rotating``: co- and
+        counter-rotating phasors of the transverse vector. Real
+        ``aliasing_error_force``/``aliasing_error_moment`` per axis: the largest
+        coefficient in the upper half of the sampled band (orders above N/4),
+        an estimate of the aliasing error of the orders kept.
+    """
+    import xarray as xr
+
+    attrs = dict(ds.attrs)
+    samples = ds.sizes["angle"]
+    kmax = int(max_order if max_order is not None else attrs.get("max_order", 12))
+    if kmax > samples // 2 - 1:
+        raise ValueError(f"max_order {kmax} needs more than {samples} samples per revolution")
+    sense = 1 if attrs.get("rotation") == "counterclockwise" else -1
+    lead = tuple(d for d in ds["force"].dims if d not in ("axis", "angle"))
+    orders = np.arange(kmax + 1)
+
+    data = {}
+    for name, units in (("force", "N"), ("moment", "N m")):
+        values = ds[name].transpose(*lead, "axis", "angle").values
+        spectrum = phasors(values, backend, workers)
+        kept = spectrum[..., : kmax + 1]
+        z, t = kept[..., 2, :], -sense * kept[..., 1, :]
+        co, counter = rotating_split(z, t)
+        tail = np.abs(spectrum[..., samples // 4 + 1:]).max(axis=-1, initial=0.0)
+        data[name] = (lead + ("order", "axis"), np.swapaxes(kept, -1, -2), {
+            "units": units,
+            "long_name": f"order phasor of the shaking {name}",
+            "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude",
+        })
+        data[f"{name}_rotating"] = (lead + ("order", "rotation"), np.stack([co, counter], axis=-1), {
+            "units": units,
+            "long_name": f"co- and counter-rotating phasors of the transverse {name}",
+            "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta); "
+                           "t points 90 deg ahead of +z in the direction of rotation",
+        })
+        data[f"aliasing_error_{name}"] = (lead + ("axis",), tail, {
+            "units": units,
+            "long_name": f"spectral-tail estimate of the aliasing error of the {name} phasors",
+        })
+        data[f"{name}_scale"] = ds[f"{name}_scale"]
+
+    coords = {
+        "order": ("order", orders, {"long_name": "order of crank speed", "units": "1"}),
+        "axis": ds["axis"],
+        "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
+    }
+    for name in ("speed", "rpm"):
+        if name in ds.coords:
+            coords[name] = ds[name]
+    attrs.update({
+        "title": f"harmbal order spectrum: {attrs.get('engine', '')}",
+        "amplitude": "peak (one-sided)",
+        "phase": "arg C_k, relative to theta = 0 (TDC of cylinder 1)",
+        "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
+        "fft_backend": backend,
+        "balanced_rtol": BALANCED_RTOL,
+    })
+    return xr.Dataset(data, coords, attrs)
+
+
+def is_balanced(amplitude, scale, rtol: float = BALANCED_RTOL):
+    """True where an order component is zero up to round-off: its amplitude is
+    at most ``rtol`` times the single-body load scale."""
+    return np.abs(amplitude) <= rtol * np.asarray(scale)

@@ -459,7 +459,7 @@ class _Reader:
         e = self.quantity(geometry, "pin_offset", gwhere.get("pin_offset", "geometry"), "length", default=0.0)
         h = self.quantity(geometry, "cylinder_offset", gwhere.get("cylinder_offset", "geometry"), "length", default=0.0)
         if all(math.isfinite(v) for v in (r, l, e, h)) and r > 0 and l > 0 and not l > r + abs(e + h):
-            self.fail(_join(path, "geometry.rod_length"), geometry.get("rod_length"),
+            self.fail(_join(gwhere["rod_length"], "rod_length"), geometry["rod_length"],
                       f"the crank train cannot assemble: rod length {l * 1e3:.6g} mm must exceed crank radius "
                       f"+ |pin offset + cylinder offset| = {(r + abs(e + h)) * 1e3:.6g} mm")
 
@@ -486,7 +486,9 @@ class _Reader:
         """A rigid rod, or a two-point split converted to mass and CG."""
         split_keys = _ROD_SPLIT_KEYS & table.keys()
         rigid_keys = _ROD_RIGID_KEYS & table.keys()
-        section = _join(path, "rod")
+        # Problems of the rod as a whole go where the cylinder wrote its rod
+        # table, or to the shared [rod] table.
+        section = _join(path, "rod") if _join(path, "rod") in where.values() else "rod"
         if split_keys and rigid_keys:
             self.fail(section, sorted(table), "give the rod either as a rigid body (mass, cg_from_big_end, "
                       "inertia) or as a two-point split (mass_big_end, mass_small_end), not both")

@@ -1,0 +1,96 @@
+"""The harmbal command: tables, archives, exit codes, nothing written on failure."""
+
+import subprocess
+import sys
+
+import pytest
+import tomli_w
+
+from harmbal.cli import main
+
+
+def write_scene(path, mapping):
+    path.write_text(tomli_w.dumps(mapping))
+    return path
+
+
+def test_run_prints_order_table_and_writes_archive(tmp_path, base_scene, capsys):
+    scene = write_scene(tmp_path / "twin.toml", base_scene)
+    out = tmp_path / "twin.nc"
+    assert main(["run", str(scene), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "Free force" in text and "Free moment" in text and "co [N]" in text and "counter [N m]" in text
+    assert "3000 rpm" in text
+    assert out.is_file()
+    assert main(["show", str(out)]) == 0
+    shown = capsys.readouterr().out
+    # The archive reproduces the run's table exactly.
+    assert shown.strip() == text.replace(f"\nwrote {out}", "").strip()
+
+
+def test_balanced_orders_print_without_phase(tmp_path, base_scene, capsys):
+    # Centric 180° twin, reciprocating only: the first-order forces cancel, the
+    # second-order ones add.
+    base_scene["geometry"]["pin_offset"] = 0
+    base_scene["model"] = {"effects": ["reciprocating"]}
+    main(["run", str(write_scene(tmp_path / "s.toml", base_scene))])
+    lines = capsys.readouterr().out.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("Free force"))
+    rows = {int(line.split()[0]): line for line in lines[start + 1:start + 13]}
+    assert "°" not in rows[1] and rows[1].split()[1:] == ["0"] * 5
+    assert rows[2].count("°") == 3  # z, co and counter
+
+
+@pytest.mark.parametrize(
+    "edit, needle",
+    [
+        (lambda s: s["geometry"].update(rod_lenght="1 m"), "geometry.rod_lenght"),
+        (lambda s: s["piston"].update(mass="-1 kg"), "piston.mass"),
+        (lambda s: s["engine"].update(speed="3 kg"), "engine.speed"),
+    ],
+)
+def test_bad_scene_exits_2_naming_file_and_key_and_writes_nothing(tmp_path, base_scene, capsys, edit, needle):
+    edit(base_scene)
+    scene = write_scene(tmp_path / "bad.toml", base_scene)
+    out = tmp_path / "out.nc"
+    assert main(["run", str(scene), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert str(scene) in err and needle in err
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_toml_syntax_error_exits_2(tmp_path, capsys):
+    scene = tmp_path / "broken.toml"
+    scene.write_text("[engine]\nname = \n")
+    assert main(["run", str(scene)]) == 2
+    assert "TOML syntax error" in capsys.readouterr().err
+
+
+def test_missing_scene_and_output_directory_exit_2(tmp_path, base_scene, capsys):
+    assert main(["run", str(tmp_path / "nope.toml")]) == 2
+    assert "nope.toml" in capsys.readouterr().err
+    scene = write_scene(tmp_path / "ok.toml", base_scene)
+    assert main(["run", str(scene), "-o", str(tmp_path / "no" / "dir" / "x.nc")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_show_rejects_non_archive(tmp_path, capsys):
+    junk = tmp_path / "junk.nc"
+    junk.write_text("not netcdf")
+    assert main(["show", str(junk)]) == 2
+    assert "junk.nc" in capsys.readouterr().err
+    assert main(["show", str(tmp_path / "missing.nc")]) == 2
+
+
+@pytest.mark.parametrize("args", [["--help"], ["run", "--help"], ["show", "--help"]])
+def test_help_on_every_command(args):
+    result = subprocess.run([sys.executable, "-m", "harmbal", *args], capture_output=True, text=True)
+    assert result.returncode == 0 and "usage: harmbal" in result.stdout
+
+
+def test_console_entry_point_runs_as_module(tmp_path, base_scene):
+    scene = write_scene(tmp_path / "s.toml", base_scene)
+    result = subprocess.run([sys.executable, "-m", "harmbal", "run", str(scene)], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert "Free moment" in result.stdout

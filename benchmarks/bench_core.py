@@ -1,0 +1,74 @@
+"""Time the core pipeline: analyse() in-process and `harmbal run` end to end.
+
+Run from the repository root with harmbal installed:
+
+    python benchmarks/bench_core.py [--repeat 200]
+
+Prints a Markdown table; docs/performance.md records the figures and the
+machine. In-process timings are the median of many calls after one warm-up
+call (imports and pint's registry are paid once); the end-to-end timing is the
+median wall time of fresh `harmbal run` processes, imports included.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+ENGINES = ROOT / "datasets" / "engines"
+
+
+def median_seconds(function, repeat: int) -> float:
+    function()
+    samples = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        samples.append(time.perf_counter() - start)
+    return statistics.median(samples)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=200, help="calls per in-process timing")
+    parser.add_argument("--runs", type=int, default=7, help="processes for the end-to-end timing")
+    args = parser.parse_args()
+
+    import harmbal as hb
+
+    v8 = hb.load_scene(ENGINES / "v8-cross-plane.toml")
+    rows = [
+        ("load_scene(v8-cross-plane.toml)", median_seconds(lambda: hb.load_scene(ENGINES / "v8-cross-plane.toml"), args.repeat)),
+        ("simulate(V8)", median_seconds(lambda: hb.simulate(v8), args.repeat)),
+        ("analyse(V8)", median_seconds(lambda: hb.analyse(v8), args.repeat)),
+    ]
+    for name in ("v12.toml", "tractor-3cyl.toml"):
+        scene = hb.load_scene(ENGINES / name)
+        rows.append((f"analyse({name.removesuffix('.toml')})", median_seconds(lambda: hb.analyse(scene), args.repeat)))
+
+    def run_cli():
+        subprocess.run([sys.executable, "-m", "harmbal", "run", str(ENGINES / "tractor-3cyl.toml")],
+                       check=True, capture_output=True)
+
+    def import_only():
+        subprocess.run([sys.executable, "-c", "import harmbal"], check=True)
+
+    rows.append(("`import harmbal` (fresh process, incl. interpreter start)", median_seconds(import_only, args.runs)))
+    rows.append(("`harmbal run tractor-3cyl.toml` end to end", median_seconds(run_cli, args.runs)))
+
+    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} "
+          f"{platform.python_version()}, harmbal {hb.__version__}, samples/rev V8 = "
+          f"{hb.simulate(v8).attrs['samples_per_rev']}")
+    print("| operation | median time |\n|---|---|")
+    for name, seconds in rows:
+        print(f"| {name} | {seconds * 1e3:.3f} ms |")
+
+
+if __name__ == "__main__":
+    main()

@@ -143,7 +143,7 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
     attrs.update({
         "title": f"harmbal order spectrum: {attrs.get('engine', '')}",
         "amplitude": "peak (one-sided)",
-        "phase": "arg C_k, relative to theta = 0 (TDC of cylinder 1)",
+        "phase": "arg C_k, relative to theta = 0 (throw 1 along +z)",
         "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
         "fft_backend": backend,
         "balanced_rtol": BALANCED_RTOL,

@@ -345,7 +345,7 @@ class _Reader:
         name = self.string(engine, "name", "engine")
         description = self.string(engine, "description", "engine", "")
         cycle = engine.get("cycle", 4)
-        if cycle not in (2, 4) or isinstance(cycle, bool):
+        if not isinstance(cycle, int) or isinstance(cycle, bool) or cycle not in (2, 4):
             self.fail("engine.cycle", cycle, "must be 2 or 4 (strokes)")
             cycle = 4
         rotation = self.choice(engine, "rotation", "engine", ROTATIONS, "clockwise")
@@ -504,7 +504,7 @@ class _Reader:
         cg = self.quantity(table, "cg_from_big_end", where.get("cg_from_big_end", "rod"), "length", nonnegative=True)
         if math.isfinite(cg) and math.isfinite(length) and cg > length:
             self.fail(_join(where["cg_from_big_end"], "cg_from_big_end"), table["cg_from_big_end"],
-                      f"must not exceed the rod length {length * 1e3:.6g} mm")
+                      f"must not exceed the rod length of {path} ({length * 1e3:.6g} mm)")
         lateral = self.quantity(table, "cg_offset", where.get("cg_offset", "rod"), "length", default=0.0)
         inertia = None
         if "inertia" in table:

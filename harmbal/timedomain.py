@@ -21,7 +21,7 @@ AXES = ("x", "y", "z")
 
 CONVENTIONS = (
     "Engine frame: x along the crank axis towards the front (pulley end), y to the right seen from the "
-    "front, z up; right-handed. Crank angle theta in the direction of rotation, 0 at TDC of cylinder 1. "
+    "front, z up; right-handed. Crank angle theta in the direction of rotation, 0 when throw 1 points along +z. "
     "force, moment: exerted by the moving parts on the block; moment about the scene's reference point. "
     "See docs/conventions.md."
 )
@@ -200,7 +200,7 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         return (w2[:, None, None] * values) if several else w2 * values
 
     angle = xr.Variable("angle", unit.theta, {"units": "rad", "long_name": "crank angle θ",
-                                                "description": "from TDC of cylinder 1, in the direction of rotation"})
+                                                "description": "angle of throw 1 from +z, in the direction of rotation"})
     coords = {
         "angle": angle,
         "axis": ("axis", list(AXES), {"long_name": "engine axis"}),

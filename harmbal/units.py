@@ -88,9 +88,8 @@ def _parse_string(text: str, dimension: str) -> float:
         return float(quantity.to("dimensionless").magnitude)
     except pint.DimensionalityError:
         expected = f"[{dimension}] (e.g. {unit})" if unit else "dimensionless"
-        raise QuantityError(
-            f"has units {quantity.units:~} but {expected} is expected"
-        ) from None
+        given = f"has units {quantity.units:~}" if not quantity.unitless else "has no units"
+        raise QuantityError(f"{given} but {expected} is expected") from None
 
 
 def _names_an_angle(ureg, quantity) -> bool:

@@ -67,7 +67,10 @@ def to_si(value: object, dimension: str) -> float:
     return si
 
 
+@lru_cache(maxsize=4096)
 def _parse_string(text: str, dimension: str) -> float:
+    # Cached: scenes repeat the same strings ("0.5 kg") across cylinders and
+    # pint's parser costs ~50 µs a call. Errors are not cached and re-raise.
     import pint
 
     ureg = _registry()

@@ -1,0 +1,188 @@
+"""netCDF archives: exact round trip, readable by plain netCDF tools, atomic writes."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import harmbal as hb
+
+SCENE_TOML = """\
+[engine]
+name = "archive-test"
+description = "two-cylinder V with offsets, two speeds"
+speed = ["1500 rpm", "3000 rpm"]
+rotation = "clockwise"
+reference_point = ["20 mm", 0, 0]
+
+[model]
+effects = ["reciprocating", "rotating", "rod_inertia", "mass_torque"]
+rod = "rigid"
+
+[geometry]
+crank_radius = "45 mm"
+rod_length = "150 mm"
+pin_offset = "0.5 mm"
+
+[piston]
+mass = "0.8 kg"
+
+[rod]
+mass = "0.7 kg"
+cg_from_big_end = "45 mm"
+inertia = "0.0035 kg m^2"
+
+[[cylinder]]
+label = "L1"
+bank = "-45 deg"
+
+[[cylinder]]
+label = "R1"
+bank = "45 deg"
+axial_position = "22 mm"
+
+[[crankshaft_unbalance]]
+unbalance = "0.01 kg m"
+angle = "180 deg"
+axial_position = "50 mm"
+"""
+
+
+@pytest.fixture(scope="module")
+def scene_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("scene") / "v2.toml"
+    path.write_text(SCENE_TOML, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def tree(scene_file):
+    return hb.analyse(hb.load_scene(scene_file), per_cylinder=True)
+
+
+@pytest.fixture(scope="module")
+def archive(tree, tmp_path_factory):
+    path = tmp_path_factory.mktemp("archive") / "result.nc"
+    written = hb.save(tree, path)
+    assert os.fspath(written) == os.fspath(path)
+    return path
+
+
+def _paths(t):
+    return sorted(node.path for node in t.subtree)
+
+
+def test_round_trip_is_identical(tree, archive):
+    back = hb.open_archive(archive)
+    assert _paths(back) == _paths(tree) == ["/", "/orders", "/scene", "/time"]
+    for path in _paths(tree):
+        xr.testing.assert_identical(back[path].to_dataset(inherit=False), tree[path].to_dataset(inherit=False))
+    # complex phasors come back complex, bit for bit
+    assert np.iscomplexobj(back["orders"].ds.force.values)
+    np.testing.assert_array_equal(back["orders"].ds.moment_rotating.values, tree["orders"].ds.moment_rotating.values)
+
+
+def test_round_trip_single_speed(tmp_path):
+    scene = hb.load_scene({
+        "engine": {"name": "single", "speed": "2000 rpm"},
+        "model": {"effects": ["reciprocating", "rotating"], "rod": "two_point"},
+        "geometry": {"crank_radius": "30 mm", "rod_length": "100 mm"},
+        "piston": {"mass": "0.3 kg"}, "rod": {"mass_big_end": "0.2 kg", "mass_small_end": "0.1 kg"},
+        "cylinder": [{}],
+    })
+    tree = hb.analyse(scene)
+    back = hb.open_archive(hb.save(tree, tmp_path / "single.nc"))
+    for path in _paths(tree):
+        xr.testing.assert_identical(back[path].to_dataset(inherit=False), tree[path].to_dataset(inherit=False))
+
+
+def test_plain_xarray_reads_it(archive, tree):
+    with xr.open_datatree(archive) as plain:
+        assert set(_paths(plain)) == set(_paths(tree))
+        orders = plain["orders"].ds
+        # complex values are stored as a trailing real/imag dimension
+        assert orders.force.dims[-1] == "part"
+        assert list(orders["part"].values) == ["real", "imag"]
+        np.testing.assert_array_equal(orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
+        np.testing.assert_array_equal(orders.force.isel(part=1).values, tree["orders"].ds.force.values.imag)
+        time = plain["time"].ds
+        np.testing.assert_array_equal(time.force.values, tree["time"].ds.force.values)
+        for group in ("time", "orders"):
+            for name in ("force", "moment"):
+                attrs = plain[group].ds[name].attrs
+                assert attrs["units"] == ("N" if name == "force" else "N m")
+                assert attrs["long_name"]
+        assert plain["time"].ds.angle.attrs["units"] == "rad"
+
+
+def test_netcdf4_library_reads_it(archive, tree, scene_file):
+    netCDF4 = pytest.importorskip("netCDF4")
+    with netCDF4.Dataset(archive) as nc:
+        assert set(nc.groups) == {"scene", "time", "orders"}
+        assert nc.getncattr("harmbal_version") == hb.__version__
+        assert "crank axis" in nc.getncattr("conventions")
+        assert nc["scene"].getncattr("scene_toml") == scene_file.read_text(encoding="utf-8")
+        force = nc["time"].variables["force"]
+        assert force.getncattr("units") == "N"
+        assert force.getncattr("long_name")
+        np.testing.assert_array_equal(force[:], tree["time"].ds.force.values)
+        moment = nc["orders"].variables["moment"]
+        assert moment.getncattr("units") == "N m"
+        assert moment.dimensions[-1] == "part"
+
+
+def test_scene_text_is_kept_for_mappings_too(tmp_path):
+    mapping = {
+        "engine": {"name": "from-mapping", "speed": 100.0},
+        "geometry": {"crank_radius": 0.05, "rod_length": 0.2},
+        "piston": {"mass": 1.0}, "rod": {"mass": 1.0, "cg_from_big_end": 0.05, "inertia": 0.01},
+        "cylinder": [{}],
+    }
+    back = hb.open_archive(hb.save(hb.analyse(hb.load_scene(mapping)), tmp_path / "m.nc"))
+    import tomllib
+
+    assert tomllib.loads(back["scene"].ds.attrs["scene_toml"]) == mapping
+
+
+def _leftovers(directory):
+    return sorted(p.name for p in directory.iterdir())
+
+
+def test_failed_write_leaves_nothing(tree, tmp_path, monkeypatch):
+    target = tmp_path / "broken.nc"
+
+    def explode(self, filepath, *args, **kwargs):
+        with open(filepath, "wb") as fh:  # half a file, then a crash
+            fh.write(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+        raise OSError("disk full (simulated)")
+
+    monkeypatch.setattr(xr.DataTree, "to_netcdf", explode)
+    with pytest.raises(OSError, match="disk full"):
+        hb.save(tree, target)
+    assert _leftovers(tmp_path) == []
+
+
+def test_failed_write_keeps_the_old_file(tree, tmp_path):
+    target = tmp_path / "keep.nc"
+    hb.save(tree, target)
+    before = target.read_bytes()
+    bad = tree.copy(deep=True)
+    bad["time"].attrs["not_serialisable"] = {"a": 1}  # netCDF attributes cannot be dicts
+    with pytest.raises((TypeError, ValueError)):
+        hb.save(bad, target)
+    assert _leftovers(tmp_path) == ["keep.nc"]
+    assert target.read_bytes() == before
+
+
+def test_open_archive_refuses_a_text_file(tmp_path, scene_file):
+    with pytest.raises(hb.ArchiveError):
+        hb.open_archive(scene_file)
+    empty = tmp_path / "empty.nc"
+    empty.write_bytes(b"")
+    with pytest.raises(hb.ArchiveError):
+        hb.open_archive(empty)
+    with pytest.raises(FileNotFoundError):
+        hb.open_archive(tmp_path / "missing.nc")

@@ -94,3 +94,20 @@ def test_console_entry_point_runs_as_module(tmp_path, base_scene):
     result = subprocess.run([sys.executable, "-m", "harmbal", "run", str(scene)], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert "Free moment" in result.stdout
+
+
+def test_several_speeds_print_one_block_each_scaled_by_omega_squared(tmp_path, base_scene, capsys):
+    base_scene["engine"]["speed"] = ["1000 rpm", "3000 rpm"]
+    base_scene["geometry"]["pin_offset"] = 0
+    base_scene["model"] = {"effects": ["reciprocating"]}
+    assert main(["run", str(write_scene(tmp_path / "s.toml", base_scene))]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    blocks = [i for i, line in enumerate(lines) if line.startswith("Speed ")]
+    assert [lines[i].split()[1] for i in blocks] == ["1000", "3000"]
+    # Second-order z force of each block (row "2" after "Free force").
+    amplitudes = []
+    for i in blocks:
+        start = next(j for j in range(i, len(lines)) if lines[j].startswith("Free force"))
+        row = next(line for line in lines[start + 1:] if line.split()[0] == "2")
+        amplitudes.append(float(row.split()[3]))
+    assert amplitudes[1] / amplitudes[0] == pytest.approx(9, rel=1e-4)  # 5 significant digits printed

@@ -41,8 +41,9 @@ class SliderCrank:
         lateral position is the constant offset ``e``.
     e : ndarray
         Offset of the piston-pin path from the crank axis [m].
-    rod_angle, drod_angle, ddrod_angle : ndarray
-        Rod angle ϑ [rad] from the cylinder axis (towards +n) and derivatives.
+    drod_angle, ddrod_angle : ndarray
+        First and second ψ-derivatives of the rod angle ϑ from the cylinder
+        axis (towards +n), sin ϑ = g/l.
     """
 
     a: tuple[np.ndarray, np.ndarray]
@@ -52,7 +53,6 @@ class SliderCrank:
     db: np.ndarray
     ddb: np.ndarray
     e: np.ndarray
-    rod_angle: np.ndarray
     drod_angle: np.ndarray
     ddrod_angle: np.ndarray
 
@@ -122,14 +122,13 @@ def slider_crank(
         s, ds, dds = root, droot, ddroot
     else:
         s, ds, dds = _series_root(g, dg, ddg, l, series_harmonics)
-    rod_angle = np.arcsin(g / l)
     drod = dg / root
     ddrod = (ddg * root - dg * droot) / root**2
     return SliderCrank(
         a=a, da=da, dda=dda,
         b=a[0] + s, db=da[0] + ds, ddb=dda[0] + dds,
         e=np.broadcast_to(e, np.shape(g)),
-        rod_angle=rod_angle, drod_angle=drod, ddrod_angle=ddrod,
+        drod_angle=drod, ddrod_angle=ddrod,
     )
 
 

@@ -197,7 +197,8 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     lead = ("speed",) if several else ()
 
     def scaled(values):
-        return (w2[:, None, None] * values) if several else w2 * values
+        """Unit-speed values times ω², with a leading speed dim if several."""
+        return np.multiply.outer(w2, values) if several else w2 * values
 
     angle = xr.Variable("angle", unit.theta, {"units": "rad", "long_name": "crank angle θ",
                                                 "description": "angle of throw 1 from +z, in the direction of rotation"})
@@ -217,9 +218,8 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     if per_cylinder:
         coords["cylinder"] = ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"})
         dims = lead + ("cylinder", "axis", "angle")
-        expand = (lambda a: w2[:, None, None, None] * a) if several else (lambda a: w2 * a)
-        data["force_cylinder"] = (dims, expand(unit.force_cylinder), {"units": "N", "long_name": "force of one cylinder"})
-        data["moment_cylinder"] = (dims, expand(moment_cyl), {"units": "N m", "long_name": "moment of one cylinder"})
+        data["force_cylinder"] = (dims, scaled(unit.force_cylinder), {"units": "N", "long_name": "force of one cylinder"})
+        data["moment_cylinder"] = (dims, scaled(moment_cyl), {"units": "N m", "long_name": "moment of one cylinder"})
     return xr.Dataset(data, coords, attrs=_attrs(scene, n))
 
 

@@ -16,6 +16,8 @@ _EXPORTS = {
     "SceneError": "scene",
     "simulate": "timedomain",
     "order_spectrum": "orders",
+    "stars": "stars",
+    "verify_orders": "stars",
     "analyse": "analysis",
     "save": "archive",
     "open_archive": "archive",

@@ -7,6 +7,7 @@ import numpy as np
 from ._version import __version__
 from .orders import order_spectrum
 from .scene import Scene
+from .stars import stars
 from .timedomain import CONVENTIONS, simulate
 
 
@@ -44,7 +45,8 @@ def scene_dataset(scene: Scene):
 
 
 def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy"):
-    """Run the pipeline: exact time-domain loads and their order spectrum.
+    """Run the pipeline: exact time-domain loads, their order spectrum, and
+    the crank stars and free vectors from the order domain.
 
     Parameters
     ----------
@@ -59,8 +61,9 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     -------
     xarray.DataTree
         Groups ``/scene`` (cylinder table and scene text), ``/time``
-        (:func:`harmbal.simulate`) and ``/orders``
-        (:func:`harmbal.order_spectrum`).
+        (:func:`harmbal.simulate`), ``/orders``
+        (:func:`harmbal.order_spectrum`) and ``/stars``
+        (:func:`harmbal.stars`).
     """
     import xarray as xr
 
@@ -72,4 +75,5 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         "harmbal_version": __version__,
         "conventions": CONVENTIONS,
     })
-    return xr.DataTree.from_dict({"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders})
+    return xr.DataTree.from_dict({"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
+                                  "/stars": stars(scene, backend=backend)})

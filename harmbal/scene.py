@@ -169,6 +169,8 @@ class Scene:
     model: Model = field(default_factory=Model)
     sampling: Sampling = field(default_factory=Sampling)
     description: str = ""
+    #: Firing order as cylinder indices (0-based), if the scene gives one.
+    firing_order: tuple[int, ...] | None = None
     source: str = "<mapping>"
     source_text: str = ""
 
@@ -232,7 +234,7 @@ _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance",
 }
-_ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point"}
+_ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
 _SAMPLING_KEYS = {"samples_per_rev", "accuracy", "max_order"}
 _GEOMETRY_KEYS = {"crank_radius", "rod_length", "pin_offset", "cylinder_offset"}
@@ -364,9 +366,38 @@ class _Reader:
         cylinders = self.cylinders(data.get("cylinder", _MISSING), shared, shared_unbalances, model)
         crankshaft = tuple(self.unbalances(data.get("crankshaft_unbalance", []), "crankshaft_unbalance",
                                            "axial_position"))
+        firing_order = self.firing_order(engine, cylinders, cycle)
         return Scene(name=name, description=description, cycle=cycle, rotation=rotation, speeds=speeds,
                      reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft,
-                     model=model, sampling=sampling, source=self.source, source_text=text)
+                     model=model, sampling=sampling, firing_order=firing_order, source=self.source,
+                     source_text=text)
+
+    def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:
+        """The firing order as cylinder indices, checked against the geometry."""
+        from .firing import FiringOrderError, firing
+
+        raw = engine.get("firing_order", _MISSING)
+        if raw is _MISSING:
+            return None
+        key = "engine.firing_order"
+        labels = [c.label for c in cylinders]
+        if not isinstance(raw, list) or any(isinstance(v, bool) or not isinstance(v, (str, int)) for v in raw):
+            self.fail(key, raw, "must be a list of cylinder labels")
+            return None
+        given = [str(v) for v in raw]
+        if sorted(given) != sorted(labels):
+            self.fail(key, raw, f"must name every cylinder exactly once: {', '.join(labels)}")
+            return None
+        order = tuple(labels.index(v) for v in given)
+        if self.problems:  # the geometry may be invalid; check the order once it is not
+            return order
+        try:
+            firing([c.throw for c in cylinders], [c.bank for c in cylinders], [c.crank_radius for c in cylinders],
+                   [c.rod_length for c in cylinders], [c.offset for c in cylinders], cycle, order)
+        except FiringOrderError as exc:
+            self.fail(key, raw, f"not possible with these throws and banks: {exc}")
+            return None
+        return order
 
     def speeds(self, engine: Mapping) -> tuple[float, ...]:
         raw = engine.get("speed", _MISSING)

@@ -53,7 +53,9 @@ def choose_samples(scene: Scene) -> int:
     if sampling.samples_per_rev is not None:
         return sampling.samples_per_rev
     k = sampling.max_order
-    rho = max(float(decay_rate(c.crank_radius, c.rod_length, c.offset)) for c in scene.cylinders)
+    cyls = scene.cylinders
+    rho = float(np.max(decay_rate(np.array([c.crank_radius for c in cyls]), np.array([c.rod_length for c in cyls]),
+                                  np.array([c.offset for c in cyls]))))
     n = 4 * k
     if rho > 0:
         m = k + 1
@@ -63,58 +65,85 @@ def choose_samples(scene: Scene) -> int:
     return 8 * math.ceil(n / 8)
 
 
-def unit_speed_loads(scene: Scene, samples_per_rev: int) -> UnitSpeedLoads:
-    """Force and moment about the origin at ω = 1 rad/s, per cylinder and for
-    the crankshaft unbalances, computing only the scene's effects."""
+def _column(values) -> np.ndarray:
+    return np.asarray(values, dtype=float)[:, None]
+
+
+def planar_loads(scene: Scene, cylinders, psi: np.ndarray):
+    """Load of one cylinder's moving parts in its local plane frame at unit
+    speed, summed over the scene's effects.
+
+    Parameters
+    ----------
+    scene : Scene
+        Gives the effects and model options.
+    cylinders : sequence of Cylinder
+        Geometry and masses, one row of ``psi`` each.
+    psi : ndarray
+        Local crank angles ψ [rad], shape (cylinder, angle).
+
+    Returns
+    -------
+    (force_c, force_n, roll) or None
+        Force along and across the cylinder axis [N] and moment about the
+        crank axis in the direction of rotation [N m] (including the drive
+        torque's reaction if ``mass_torque`` is simulated), shape of ``psi``;
+        None if no planar effect is simulated.
+    """
     effects = scene.model.effects
-    sense = scene.sense
-    theta = 2 * np.pi * np.arange(samples_per_rev) / samples_per_rev
-    cyls = scene.cylinders
-
-    def column(values):
-        return np.asarray(values, dtype=float)[:, None]
-
-    r = column([c.crank_radius for c in cyls])
-    l = column([c.rod_length for c in cyls])
-    bank = column([c.bank for c in cyls])
-    throw = column([c.throw for c in cyls])
-    x = column([c.x for c in cyls])
-    psi = theta[None, :] + throw - bank
-
-    rod_mass = column([c.rod.mass for c in cyls])
-    rod_cg = column([c.rod.cg_from_big_end for c in cyls])
+    r = _column([c.crank_radius for c in cylinders])
+    l = _column([c.rod_length for c in cylinders])
+    rod_mass = _column([c.rod.mass for c in cylinders])
+    rod_cg = _column([c.rod.cg_from_big_end for c in cylinders])
     small_end = rod_mass * rod_cg / l
     big_end = rod_mass - small_end
 
-    needs_slider = bool(effects & {"reciprocating", "rod_inertia"})
     kin = None
-    if needs_slider:
+    if effects & {"reciprocating", "rod_inertia"}:
         series = scene.model.series_harmonics if scene.model.piston == "series" else None
-        kin = slider_crank(psi, r, l, column([c.offset for c in cyls]), series)
+        kin = slider_crank(psi, r, l, _column([c.offset for c in cylinders]), series)
 
     planar: list[loads.PlanarLoad] = []
     if "reciprocating" in effects:
         planar.append(loads.reciprocating(
-            kin, column([c.piston.mass for c in cyls]), column([c.piston.cg_lateral for c in cyls]), small_end))
+            kin, _column([c.piston.mass for c in cylinders]), _column([c.piston.cg_lateral for c in cylinders]),
+            small_end))
     if "rotating" in effects:
         planar.append(loads.rotating_rod(crank_pin(psi, r)[0], big_end))
     if "rod_inertia" in effects and scene.model.rod != "two_point":
-        lateral = column([c.rod.cg_lateral for c in cyls])
+        lateral = _column([c.rod.cg_lateral for c in cylinders])
         off_axis = scene.model.rod == "rigid" and bool(np.any(lateral))
         planar.append(loads.rod_inertia(kin, rod_mass, rod_cg, lateral,
-                                        column([c.rod.inertia for c in cyls]), l, off_axis))
+                                        _column([c.rod.inertia for c in cylinders]), l, off_axis))
+    if not planar:
+        return None
+    shape = np.shape(psi)
+    force_c = sum(p.force_c for p in planar) + np.zeros(shape)
+    force_n = sum(p.force_n for p in planar) + np.zeros(shape)
+    roll = sum(p.roll for p in planar) + np.zeros(shape)
+    if "mass_torque" in effects:
+        # The drive keeps ω constant with torque T = d(KE)/dθ·ω²; the block
+        # receives its reaction about the crank axis in the sense of rotation.
+        roll = roll + sum(p.power for p in planar)
+    return force_c, force_n, roll
+
+
+def unit_speed_loads(scene: Scene, samples_per_rev: int) -> UnitSpeedLoads:
+    """Force and moment about the origin at ω = 1 rad/s, per cylinder and for
+    the crankshaft unbalances, computing only the scene's effects."""
+    sense = scene.sense
+    theta = 2 * np.pi * np.arange(samples_per_rev) / samples_per_rev
+    cyls = scene.cylinders
+    bank = _column([c.bank for c in cyls])
+    x = _column([c.x for c in cyls])
+    psi = theta[None, :] + _column([c.throw for c in cyls]) - bank
 
     shape = (len(cyls), 3, samples_per_rev)
     force = np.zeros(shape)
     moment = np.zeros(shape)
-    if planar:
-        force_c = sum(p.force_c for p in planar)
-        force_n = sum(p.force_n for p in planar)
-        roll = sum(p.roll for p in planar)
-        if "mass_torque" in effects:
-            # The drive keeps ω constant with torque T = d(KE)/dθ·ω²; the block
-            # receives its reaction about the crank axis in the sense of rotation.
-            roll = roll + sum(p.power for p in planar)
+    planar = planar_loads(scene, cyls, psi)
+    if planar is not None:
+        force_c, force_n, roll = planar
         # Local (c, n) -> transverse complex w = z + i·t, t 90° ahead of +z in
         # the direction of rotation (t = −sense·y); e_c ↔ e^{iβ}.
         w = (force_c + 1j * force_n) * np.exp(1j * bank)
@@ -126,24 +155,24 @@ def unit_speed_loads(scene: Scene, samples_per_rev: int) -> UnitSpeedLoads:
 
     crank_force = np.zeros((3, samples_per_rev))
     crank_moment = np.zeros((3, samples_per_rev))
-    if "rotating" in effects:
+    if "rotating" in scene.model.effects:
         index = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
         if index:
             ub = [u for c in cyls for u in c.throw_unbalances]
             f, m = loads.rotating_unbalance(
-                theta[None, :] + column([cyls[i].throw + u.angle for i, u in zip(index, ub)]),
-                column([u.unbalance for u in ub]), column([u.x for u in ub]), sense)
+                theta[None, :] + _column([cyls[i].throw + u.angle for i, u in zip(index, ub)]),
+                _column([u.unbalance for u in ub]), _column([u.x for u in ub]), sense)
             np.add.at(force, index, f)
             np.add.at(moment, index, m)
         if scene.crankshaft_unbalances:
             ub = scene.crankshaft_unbalances
-            f, m = loads.rotating_unbalance(theta[None, :] + column([u.angle for u in ub]),
-                                            column([u.unbalance for u in ub]), column([u.x for u in ub]), sense)
+            f, m = loads.rotating_unbalance(theta[None, :] + _column([u.angle for u in ub]),
+                                            _column([u.unbalance for u in ub]), _column([u.x for u in ub]), sense)
             crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
     return UnitSpeedLoads(theta, force, moment, crank_force, crank_moment)
 
 
-def _about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np.ndarray:
+def moment_about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np.ndarray:
     """Moment about ``point`` from the moment about the origin: M − p × F
     (axis is the second-to-last dimension)."""
     px, py, pz = point
@@ -180,8 +209,8 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     n = samples_per_rev or choose_samples(scene)
     unit = unit_speed_loads(scene, n)
     ref = np.asarray(scene.reference_point)
-    moment_cyl = _about(ref, unit.force_cylinder, unit.moment_cylinder)
-    moment_crank = _about(ref, unit.force_crankshaft, unit.moment_crankshaft)
+    moment_cyl = moment_about(ref, unit.force_cylinder, unit.moment_cylinder)
+    moment_crank = moment_about(ref, unit.force_crankshaft, unit.moment_crankshaft)
     force = unit.force_cylinder.sum(axis=0) + unit.force_crankshaft
     moment = moment_cyl.sum(axis=0) + moment_crank
 
@@ -191,23 +220,17 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     force_scale = peak_sum(unit.force_cylinder, unit.force_crankshaft)
     moment_scale = peak_sum(moment_cyl, moment_crank)
 
-    speeds = np.asarray(scene.speeds, dtype=float)
-    several = len(speeds) > 1
-    w2 = speeds**2 if several else speeds[0] ** 2
-    lead = ("speed",) if several else ()
+    lead, w2, coords = speed_axis(scene)
 
     def scaled(values):
         """Unit-speed values times ω², with a leading speed dim if several."""
-        return np.multiply.outer(w2, values) if several else w2 * values
+        return np.multiply.outer(w2, values) if lead else w2 * values
 
-    angle = xr.Variable("angle", unit.theta, {"units": "rad", "long_name": "crank angle θ",
-                                                "description": "angle of throw 1 from +z, in the direction of rotation"})
-    coords = {
-        "angle": angle,
+    coords.update({
+        "angle": ("angle", unit.theta, {"units": "rad", "long_name": "crank angle θ",
+                                        "description": "angle of throw 1 from +z, in the direction of rotation"}),
         "axis": ("axis", list(AXES), {"long_name": "engine axis"}),
-        "speed": (lead, speeds if several else speeds[0], {"units": "rad/s", "long_name": "crank speed ω"}),
-        "rpm": (lead, (speeds if several else speeds[0]) * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
-    }
+    })
     data = {
         "force": (lead + ("axis", "angle"), scaled(force), {"units": "N", "long_name": "shaking force on the block"}),
         "moment": (lead + ("axis", "angle"), scaled(moment),
@@ -220,10 +243,29 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         dims = lead + ("cylinder", "axis", "angle")
         data["force_cylinder"] = (dims, scaled(unit.force_cylinder), {"units": "N", "long_name": "force of one cylinder"})
         data["moment_cylinder"] = (dims, scaled(moment_cyl), {"units": "N m", "long_name": "moment of one cylinder"})
-    return xr.Dataset(data, coords, attrs=_attrs(scene, n))
+    return xr.Dataset(data, coords, attrs=attributes(scene, n))
 
 
-def _attrs(scene: Scene, samples: int) -> dict:
+def speed_axis(scene: Scene):
+    """The scene's speeds as a leading dimension.
+
+    Returns ``(lead, w2, coords)``: ``("speed",)`` and the array of ω² if the
+    scene has several speeds, else ``()`` and the scalar ω²; and the
+    ``speed`` [rad/s] and ``rpm`` coordinates.
+    """
+    speeds = np.asarray(scene.speeds, dtype=float)
+    if len(speeds) > 1:
+        lead, values = ("speed",), speeds
+    else:
+        lead, values = (), speeds[0]
+    coords = {
+        "speed": (lead, values, {"units": "rad/s", "long_name": "crank speed ω"}),
+        "rpm": (lead, values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
+    }
+    return lead, values**2, coords
+
+
+def attributes(scene: Scene, samples: int) -> dict:
     model = scene.model
     return {
         "title": f"harmbal time-domain shaking loads: {scene.name}",

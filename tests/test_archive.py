@@ -77,7 +77,7 @@ def _paths(t):
 
 def test_round_trip_is_identical(tree, archive):
     back = hb.open_archive(archive)
-    assert _paths(back) == _paths(tree) == ["/", "/orders", "/scene", "/time"]
+    assert _paths(back) == _paths(tree) == ["/", "/orders", "/scene", "/stars", "/time"]
     for path in _paths(tree):
         xr.testing.assert_identical(back[path].to_dataset(inherit=False), tree[path].to_dataset(inherit=False))
     # complex phasors come back complex, bit for bit

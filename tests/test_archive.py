@@ -121,7 +121,8 @@ def test_plain_xarray_reads_it(archive, tree):
 def test_netcdf4_library_reads_it(archive, tree, scene_file):
     netCDF4 = pytest.importorskip("netCDF4")
     with netCDF4.Dataset(archive) as nc:
-        assert set(nc.groups) == {"scene", "time", "orders"}
+        assert set(nc.groups) == {"scene", "time", "orders", "stars"}
+        assert nc["stars"].variables["firing_sequence"][:].tolist() == tree["stars"].ds.firing_sequence.values.tolist()
         assert nc.getncattr("harmbal_version") == hb.__version__
         assert "crank axis" in nc.getncattr("conventions")
         assert nc["scene"].getncattr("scene_toml") == scene_file.read_text(encoding="utf-8")

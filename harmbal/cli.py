@@ -37,6 +37,21 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--backend", choices=("scipy", "numpy", "pyfftw"), default="scipy", help="FFT backend")
     run.set_defaults(handler=_run)
 
+    star = commands.add_parser(
+        "stars", help="crank stars, firing, and free force and moment per order (order domain)",
+        description="Compute the crank stars and the free force and moment vectors of each order in the "
+                    "order domain (one exact spectrum per cylinder type, shift theorem per cylinder) and "
+                    "print them with a verdict per order. --verify compares them with the FFT of the exact "
+                    "time-domain model; --plot draws the stars and phasor diagrams.")
+    star.add_argument("scene", type=Path, help="scene file (TOML)")
+    star.add_argument("--plot", type=Path, metavar="FILE",
+                      help="draw crank stars and phasor diagrams per order to FILE (.svg or .png)")
+    star.add_argument("--orders", type=_order_list, metavar="K[,K...]",
+                      help="orders to plot (default: 1, 2 and every free order up to 8)")
+    star.add_argument("--verify", action="store_true",
+                      help="also compare with the time-domain model; exit 1 if they disagree")
+    star.set_defaults(handler=_stars)
+
     show = commands.add_parser(
         "show", help="print the order table stored in an archive",
         description="Print the free forces and moments per order from a harmbal netCDF archive.")
@@ -48,22 +63,68 @@ def _parser() -> argparse.ArgumentParser:
 def _run(args) -> None:
     from .analysis import analyse
     from .archive import save
-    from .scene import SceneError, load_scene
     from .tables import order_table
 
     if args.output is not None and not args.output.parent.is_dir():
         raise _BadInput(f"{args.output}: output directory {args.output.parent} does not exist")
-    try:
-        scene = load_scene(args.scene)
-    except SceneError as exc:
-        raise _BadInput(str(exc)) from None
-    except OSError as exc:
-        raise _BadInput(f"{args.scene}: cannot read scene ({exc.strerror or exc})") from None
+    scene = _load(args.scene)
     tree = analyse(scene, backend=args.backend)
     print(order_table(tree["orders"].ds))
     if args.output is not None:
         save(tree, args.output)
         print(f"\nwrote {args.output}")
+
+
+def _order_list(text: str) -> list[int]:
+    try:
+        orders = [int(k) for k in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a list of orders: {text!r}") from None
+    if any(k < 1 for k in orders):
+        raise argparse.ArgumentTypeError(f"orders must be positive: {text!r}")
+    return orders
+
+
+def _load(path: Path):
+    from .scene import SceneError, load_scene
+
+    try:
+        return load_scene(path)
+    except SceneError as exc:
+        raise _BadInput(str(exc)) from None
+    except OSError as exc:
+        raise _BadInput(f"{path}: cannot read scene ({exc.strerror or exc})") from None
+
+
+class _Disagreement(Exception):
+    pass
+
+
+def _stars(args) -> None:
+    from .stars import stars, verify_orders
+    from .tables import stars_table, verification_table
+
+    if args.plot is not None:
+        if args.plot.suffix.lower() not in (".svg", ".png"):
+            raise _BadInput(f"{args.plot}: --plot writes .svg or .png files")
+        if not args.plot.parent.is_dir():
+            raise _BadInput(f"{args.plot}: output directory {args.plot.parent} does not exist")
+    scene = _load(args.scene)
+    ds = stars(scene)
+    if args.orders and max(args.orders) > ds.sizes["order"] - 1:
+        raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {ds.sizes['order'] - 1}")
+    print(stars_table(ds))
+    if args.verify:
+        check = verify_orders(scene)
+        print()
+        print(verification_table(check))
+    if args.plot is not None:
+        from .plots import save_figure, stars_figure
+
+        save_figure(stars_figure(ds, orders=args.orders), args.plot)
+        print(f"\nwrote {args.plot}")
+    if args.verify and check.attrs["passed"] != "yes":
+        raise _Disagreement("the order-domain and time-domain results disagree")
 
 
 def _show(args) -> None:
@@ -90,6 +151,12 @@ def main(argv: list[str] | None = None) -> int:
         for line in str(exc).splitlines():
             print(f"harmbal: error: {line}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except _Disagreement as exc:
+        print(f"harmbal: error: {exc}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:  # output piped into head & co.: stop quietly
+        sys.stderr.close()
+        return 0
     return 0
 
 

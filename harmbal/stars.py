@@ -355,7 +355,7 @@ def stars(scene: Scene, *, backend: str = "scipy"):
         "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
         "balanced_rtol": BALANCED_RTOL,
         "firing_order": "-".join(labels[i] for i in fire.sequence),
-        "firing_order_given": "yes" if fire.given else "no (derived: the most even firing)",
+        "firing_order_given": "yes" if fire.given else "no",
         "firing_even": "yes" if fire.even else "no",
     })
     return xr.Dataset(data, coords, attrs)

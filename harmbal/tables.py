@@ -50,3 +50,92 @@ def order_table(orders) -> str:
             tail = float(np.max(sel[f"aliasing_error_{name}"].values))
             lines.append(f"{'':{len(label) + 2}}aliasing estimate {tail:.2g} {units}")
     return "\n".join(lines)
+
+
+def _arms(angles: np.ndarray) -> str:
+    """Star arms in degrees with multiplicities, e.g. ``0 ×2, 180 ×2``."""
+    degrees = np.round(np.degrees(angles), 1) % 360.0 + 0.0
+    values, counts = np.unique(degrees, return_counts=True)
+    return ", ".join(f"{v:g}" + (f" ×{c}" if c > 1 else "") for v, c in zip(values, counts))
+
+
+def _remedy(order: int, co: complex, counter: complex) -> str:
+    """The balancer that makes this pair of rotating phasors (0 = balanced):
+    crank counterweights turn at +1×, balance shafts at ±k×, and a
+    Lanchester pair at ±k× makes a standing vector (|co| = |counter|)."""
+    if co and counter:
+        if abs(abs(co) - abs(counter)) <= 1e-9 * max(abs(co), abs(counter)):
+            return f"±{order}× pair"
+        return "counterweights + −1× shaft" if order == 1 else f"+{order}× and −{order}× shafts"
+    if co:
+        return "counterweights" if order == 1 else f"+{order}× shaft"
+    return f"−{order}× shaft"
+
+
+def verdict(stars, order: int) -> str:
+    """One line per order: balanced, or which components are free and what
+    kind of balancer would cancel them (``stars`` at one speed)."""
+    parts = []
+    for name, letter in (("force", "F"), ("moment", "M")):
+        co, counter = stars[f"{name}_rotating"].sel(order=order).values * stars[f"{name}_free"].sel(order=order).values
+        if co or counter:
+            which = "co+counter" if co and counter else ("co" if co else "counter")
+            parts.append(f"{letter} {which} ({_remedy(order, co, counter)})")
+    if bool(stars["roll_free"].sel(order=order)):
+        parts.append("roll")
+    return "free: " + "; ".join(parts) if parts else "balanced"
+
+
+def stars_table(stars) -> str:
+    """Crank stars, free force and free moment per order from
+    :func:`harmbal.stars`, one block per speed, with a verdict per order."""
+    attrs = stars.attrs
+    rtol = float(attrs.get("balanced_rtol", 1e-10))
+    intervals = ", ".join(f"{d:g}" for d in np.round(np.degrees(stars["firing_interval"].values), 2))
+    lines = [
+        f"{attrs.get('engine', '')}: {stars.sizes['cylinder']} cylinders, {attrs.get('cylinder_types')} cylinder "
+        f"type(s); effects {attrs.get('effects', '')}; {attrs.get('samples_per_rev')} samples/rev per type",
+        f"Firing order {attrs.get('firing_order')} ({'given' if attrs.get('firing_order_given') == 'yes' else 'derived: the most even firing'}); intervals {intervals}° "
+        f"({'even' if attrs.get('firing_even') == 'yes' else 'uneven'})",
+        "Star: arms k·φ in degrees (×multiplicity). Amplitude (peak) and phase at θ = 0 of the co- and "
+        "counter-rotating transverse phasors; roll = moment about the crank axis.",
+    ]
+    speeds = np.atleast_1d(stars["rpm"].values)
+    for i, rpm in enumerate(speeds):
+        sel = stars.isel(speed=i) if "speed" in stars.dims else stars
+        lines.append("")
+        lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
+        f_scale, m_scale = float(sel["force_scale"]), float(sel["moment_scale"])
+        header = (f"{'order':>5}  {'F co [N]':>18}{'F counter [N]':>19}{'M co [N m]':>19}{'M counter [N m]':>19}"
+                  f"{'roll [N m]':>19}  verdict")
+        lines.append(header)
+        for k in sel["order"].values[1:]:
+            force = sel["force_rotating"].values[k]
+            moment = sel["moment_rotating"].values[k]
+            cells = [_cell(v, f_scale, rtol) for v in force] + [_cell(v, m_scale, rtol) for v in moment]
+            cells.append(_cell(sel["moment"].values[k, 0], m_scale, rtol))
+            lines.append(f"{k:>5}  " + "".join(cells) + f"  {verdict(sel, int(k))}")
+        lines.append(f"{'':>5}  estimated aliasing error {float(sel['aliasing_error_force']):.2g} N, "
+                     f"{float(sel['aliasing_error_moment']):.2g} N m")
+    lines.append("")
+    lines.append(f"{'order':>5}  {'regular':>7}  star (whole crank)")
+    for k in stars["order"].values[1:]:
+        regular = "yes" if bool(stars["star_regular"].values[k]) else "no"
+        lines.append(f"{k:>5}  {regular:>7}  {_arms(stars['star_angle'].values[k])}")
+    return "\n".join(lines)
+
+
+def verification_table(check) -> str:
+    """Order-domain against time-domain phasors from
+    :func:`harmbal.verify_orders`."""
+    lines = [f"Order domain vs FFT of the exact time-domain model ({check.attrs['samples_per_rev']} samples/rev): "
+             f"{'passed' if check.attrs['passed'] == 'yes' else 'FAILED'}",
+             f"{'order':>5}{'|ΔF| [N]':>12}{'|ΔM| [N m]':>12}  result"]
+    force = np.atleast_2d(check["force_difference"].values).max(axis=0)
+    moment = np.atleast_2d(check["moment_difference"].values).max(axis=0)
+    ok = np.atleast_2d(check["force_passed"].values).all(axis=0) & np.atleast_2d(check["moment_passed"].values).all(axis=0)
+    for k in check["order"].values:
+        lines.append(f"{k:>5}{force[k]:>12.2g}{moment[k]:>12.2g}  {'pass' if ok[k] else 'FAIL'}")
+    lines.append(f"tolerance {float(np.max(check['force_tolerance'])):.2g} N, "
+                 f"{float(np.max(check['moment_tolerance'])):.2g} N m ({check.attrs['tolerance']})")
+    return "\n".join(lines)

@@ -111,3 +111,59 @@ def test_several_speeds_print_one_block_each_scaled_by_omega_squared(tmp_path, b
         row = next(line for line in lines[start + 1:] if line.split()[0] == "2")
         amplitudes.append(float(row.split()[3]))
     assert amplitudes[1] / amplitudes[0] == pytest.approx(9, rel=1e-4)  # 5 significant digits printed
+
+
+def test_stars_prints_stars_verdicts_and_verification(tmp_path, base_scene, capsys):
+    # Centric 180° twin, reciprocating only: order 1 force cancels, order 2
+    # force adds (a standing vector: ±2× pair), order 1 moment is a standing
+    # vector too (half co, half counter).
+    base_scene["geometry"]["pin_offset"] = 0
+    base_scene["model"] = {"effects": ["reciprocating"]}
+    scene = write_scene(tmp_path / "s.toml", base_scene)
+    assert main(["stars", str(scene), "--verify"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.lstrip().startswith("order") and "verdict" in line)
+    rows = {int(line.split()[0]): line for line in lines[start + 1:start + 13]}
+    assert rows[1].endswith("free: M co+counter (±1× pair)")
+    assert rows[2].endswith("free: F co+counter (±2× pair)")
+    assert rows[3].endswith("balanced")
+    assert "Firing order 1-2 (derived: the most even firing); intervals 540, 180° (uneven)" in lines
+    assert any(line.startswith("Order domain vs FFT") and line.endswith("passed") for line in lines)
+    star_rows = {int(line.split()[0]): line.split()[1:] for line in lines
+                 if line[:5].strip().isdigit() and line.split()[1] in ("yes", "no")}
+    assert star_rows[1] == ["yes", "0,", "180"] and star_rows[2] == ["no", "0", "×2"]
+
+
+def test_stars_given_firing_order_is_reported(tmp_path, base_scene, capsys):
+    base_scene["engine"]["firing_order"] = [2, 1]
+    assert main(["stars", str(write_scene(tmp_path / "s.toml", base_scene))]) == 0
+    assert "Firing order 1-2 (given)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--orders", "40"], "above the scene's max_order"),
+    (["--plot", "{tmp}/figure.pdf"], ".svg or .png"),
+    (["--plot", "{tmp}/missing/figure.svg"], "does not exist"),
+])
+def test_stars_bad_arguments_exit_2(tmp_path, base_scene, capsys, args, message):
+    scene = write_scene(tmp_path / "s.toml", base_scene)
+    args = [a.format(tmp=tmp_path) for a in args]
+    assert main(["stars", str(scene), *args]) == 2
+    assert message in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def test_stars_verify_failure_exits_1(tmp_path, base_scene, capsys, monkeypatch):
+    import harmbal.stars
+
+    original = harmbal.stars.order_phasors
+
+    def broken(scene, **kwargs):  # a 0.1 % error in the z force of every cylinder
+        p = original(scene, **kwargs)
+        p.force_cylinder[:, :, 2] *= 1.001
+        return p
+
+    monkeypatch.setattr(harmbal.stars, "order_phasors", broken)
+    assert main(["stars", str(write_scene(tmp_path / "s.toml", base_scene)), "--verify"]) == 1
+    captured = capsys.readouterr()
+    assert "FAILED" in captured.out and "disagree" in captured.err

@@ -7,7 +7,7 @@ import numpy as np
 from ._version import __version__
 from .orders import order_spectrum
 from .scene import Scene
-from .stars import stars
+from .crank_stars import stars
 from .timedomain import CONVENTIONS, simulate
 
 

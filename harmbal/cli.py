@@ -101,7 +101,7 @@ class _Disagreement(Exception):
 
 
 def _stars(args) -> None:
-    from .stars import stars, verify_orders
+    from .crank_stars import stars, verify_orders
     from .tables import stars_table, verification_table
 
     if args.plot is not None:

@@ -10,9 +10,9 @@ bank β.
 * A four-stroke can fire each cylinder at either of its two TDCs. Given a
   firing order, consecutive firings are one of the cylinders' TDCs apart, and
   the revolutions that close the cycle go to the shortest gaps, which makes
-  the firing as even as the order allows. Without an order, the most even
-  assignment is searched for (exhaustively up to 16 cylinders; beyond that,
-  cylinders with the same TDC alternate between the two revolutions).
+  the firing as even as the order allows. Without an order, cylinders sharing
+  a TDC first alternate between the two revolutions; if that is not even,
+  the most even assignment is searched for exhaustively (up to 16 cylinders).
 """
 
 from __future__ import annotations
@@ -124,21 +124,23 @@ def firing(throw, bank, crank_radius, rod_length, offset, cycle: int, order: tup
     relative = _canonical(tdc - tdc[0])
     if revolutions == 1 or n == 1:
         return _from_sequence(tdc, _sorted(relative), revolutions, given=False)
-    if n <= EXHAUSTIVE_LIMIT:
-        choices = np.array(list(itertools.product((0.0, TWO_PI), repeat=n - 1)))
-        fire = relative[1:] + choices
-        sorted_fire = np.sort(fire, axis=1)
-        gaps = np.diff(np.concatenate([np.zeros((len(fire), 1)), sorted_fire, np.full((len(fire), 1), 2 * TWO_PI)],
-                                      axis=1), axis=1)
-        worst = gaps.max(axis=1)
-        best = np.flatnonzero(worst <= worst.min() + ANGLE_TOL)
-        candidates = [_sorted(np.concatenate([[0.0], fire[i]])) for i in best]
-        return _from_sequence(tdc, min(candidates), revolutions, given=False)
-    # Large engines: cylinders sharing a TDC alternate between the revolutions.
-    fire = relative.copy()
+    # Cylinders sharing a TDC alternate between the revolutions; when that
+    # fires evenly nothing can be more even.
+    alternating = relative.copy()
     for k, i in enumerate(_sorted(relative)):
-        fire[i] += TWO_PI * (k % 2)
-    return _from_sequence(tdc, _sorted(fire), revolutions, given=False)
+        alternating[i] += TWO_PI * (k % 2)
+    result = _from_sequence(tdc, _sorted(alternating), revolutions, given=False)
+    if result.even or n > EXHAUSTIVE_LIMIT:
+        return result
+    choices = np.array(list(itertools.product((0.0, TWO_PI), repeat=n - 1)))
+    fire = relative[1:] + choices
+    sorted_fire = np.sort(fire, axis=1)
+    gaps = np.diff(np.concatenate([np.zeros((len(fire), 1)), sorted_fire, np.full((len(fire), 1), 2 * TWO_PI)],
+                                  axis=1), axis=1)
+    worst = gaps.max(axis=1)
+    best = np.flatnonzero(worst <= worst.min() + ANGLE_TOL)
+    candidates = [_sorted(np.concatenate([[0.0], fire[i]])) for i in best]
+    return _from_sequence(tdc, min(candidates), revolutions, given=False)
 
 
 def _sorted(angles: np.ndarray) -> tuple[int, ...]:

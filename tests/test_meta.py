@@ -6,7 +6,7 @@ import sys
 
 import harmbal
 from harmbal.scene import Cylinder
-from harmbal.stars import PLACEMENT_FIELDS, TYPE_FIELDS
+from harmbal.crank_stars import PLACEMENT_FIELDS, TYPE_FIELDS
 
 
 def test_cylinder_type_and_placement_cover_every_field():
@@ -30,3 +30,12 @@ def test_import_stays_light():
             "print(sorted(heavy & set(sys.modules)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_no_public_name_is_shadowed_by_a_submodule():
+    # Importing a submodule sets it as an attribute of the package, which
+    # would shadow a lazily exported function of the same name.
+    import pkgutil
+
+    submodules = {m.name for m in pkgutil.iter_modules(harmbal.__path__)}
+    assert not submodules & set(harmbal.__all__)

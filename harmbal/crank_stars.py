@@ -236,7 +236,7 @@ def _stars(scene: Scene, kmax: int):
     return angles, regular, unit.sum(axis=1), np.array(banks), bank_regular, bank_resultant
 
 
-def stars(scene: Scene, *, backend: str = "scipy"):
+def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy"):
     """Crank stars, firing and the free force and moment of every order,
     computed in the order domain.
 
@@ -244,6 +244,8 @@ def stars(scene: Scene, *, backend: str = "scipy"):
     ----------
     scene : Scene
         From :func:`harmbal.load_scene`.
+    samples_per_rev : int, optional
+        Samples of each single-cylinder spectrum; default the scene's sampling.
     backend : {"scipy", "numpy", "pyfftw"}
         FFT implementation for the single-cylinder spectra.
 
@@ -274,7 +276,7 @@ def stars(scene: Scene, *, backend: str = "scipy"):
     """
     import xarray as xr
 
-    p = order_phasors(scene, backend=backend)
+    p = order_phasors(scene, samples_per_rev=samples_per_rev, backend=backend)
     kmax = scene.sampling.max_order
     sense = scene.sense
     lead, w2, coords = speed_axis(scene)

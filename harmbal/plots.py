@@ -1,0 +1,561 @@
+"""Crank stars and phasor diagrams of the free forces and moments.
+
+Every diagram is drawn in the plane normal to the crank axis, oriented like
+the transverse vector w = v_z + i·v_t of :doc:`conventions`: +z points up and
+angles grow clockwise on the page, in the direction of rotation, so t (90°
+ahead of +z in the direction of rotation) points to the right. For a
+clockwise engine t = +y and the page shows the engine seen from the front;
+for a counterclockwise one t = −y (seen from the rear).
+
+The figures use :class:`matplotlib.figure.Figure` directly, never pyplot, so
+they work headless and leave no global state behind. matplotlib is imported
+only when a function here is called: ``import harmbal`` stays light.
+
+>>> import harmbal as hb
+>>> from harmbal.plots import save_figure, stars_figure
+>>> ds = hb.stars(hb.load_scene("datasets/engines/v-twin-90.toml"))  # doctest: +SKIP
+>>> save_figure(stars_figure(ds, orders=[1, 2]), "v-twin-90.svg")   # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+#: The Okabe–Ito colour-blind-safe palette.
+OKABE_ITO = {
+    "black": "#000000",
+    "orange": "#E69F00",
+    "sky_blue": "#56B4E9",
+    "bluish_green": "#009E73",
+    "yellow": "#F0E442",
+    "blue": "#0072B2",
+    "vermillion": "#D55E00",
+    "reddish_purple": "#CC79A7",
+}
+
+#: Colours of the banks of a multi-bank crank star, in bank order.
+BANK_COLOURS = ("blue", "vermillion", "bluish_green", "reddish_purple", "orange", "sky_blue", "black")
+
+#: Colours of the per-cylinder arrows and of the resultant, per rotation.
+ROTATION_COLOURS = {"co": ("sky_blue", "blue"), "counter": ("orange", "vermillion")}
+
+#: File types :func:`save_figure` writes.
+FIGURE_FORMATS = ("svg", "png")
+
+#: Orders :func:`stars_figure` draws by default: 1, 2 and the free orders up to
+#: ``DEFAULT_MAX_ORDER``, at most ``DEFAULT_MAX_ROWS`` of them.
+DEFAULT_MAX_ORDER = 8
+DEFAULT_MAX_ROWS = 6
+
+#: Angles closer than this [rad] are one arm of a crank star.
+_ARM_TOL = 1e-9
+
+#: Chains with more arrows than this are drawn without cylinder labels.
+_MAX_ARROW_LABELS = 16
+
+_QUANTITIES = {"force": ("Force", "F", "N"), "moment": ("Moment", "M", "N m")}
+_PREFIXES = {-12: "p", -9: "n", -6: "µ", -3: "m", 0: "", 3: "k", 6: "M", 9: "G", 12: "T"}
+
+
+def _colour(name: str) -> str:
+    return OKABE_ITO[name]
+
+
+def _page(values) -> tuple[np.ndarray, np.ndarray]:
+    """Page coordinates (horizontal, vertical) of transverse vectors
+    w = z + i·t: t to the right, z up."""
+    values = np.asarray(values)
+    return values.imag, values.real
+
+
+def _engineering(value: float) -> int:
+    """Exponent (a multiple of 3) of the engineering prefix for ``value``."""
+    if not np.isfinite(value) or value <= 0:
+        return 0
+    return int(np.clip(3 * np.floor(np.log10(value) / 3), -12, 12))
+
+
+def _quantity(value: float, unit: str, digits: int = 4) -> str:
+    """``value`` with an engineering prefix, e.g. ``34.61 kN``."""
+    e = _engineering(abs(value))
+    return f"{value / 10.0**e:.{digits}g} {_PREFIXES[e]}{unit}"
+
+
+def _degrees(value: complex) -> str:
+    """The phase of ``value`` in degrees in (−180, 180], one decimal."""
+    phase = round(float(np.degrees(np.angle(value))), 1)
+    if phase <= -180:
+        phase += 360
+    return f"{phase + 0.0:.1f}°"
+
+
+def _rotation_label(stars: xr.Dataset) -> str:
+    """What t is in the engine frame, from the dataset's rotation."""
+    return "+y" if stars.attrs.get("rotation", "clockwise") == "clockwise" else "−y"
+
+
+def _check_order(stars: xr.Dataset, order: int) -> int:
+    orders = [int(k) for k in stars["order"].values]
+    if int(order) != order or int(order) not in orders:
+        raise ValueError(f"order {order!r} is not in the dataset (orders {orders[0]} … {orders[-1]})")
+    return int(order)
+
+
+def select_speed(stars: xr.Dataset, speed: float | None = None) -> tuple[xr.Dataset, float]:
+    """The dataset at one crank speed.
+
+    Parameters
+    ----------
+    stars : xarray.Dataset
+        From :func:`harmbal.stars`, with or without a ``speed`` dimension.
+    speed : float, optional
+        Crank speed in rpm; default the dataset's first speed.
+
+    Returns
+    -------
+    tuple of (xarray.Dataset, float)
+        The dataset without a ``speed`` dimension, and its speed in rpm.
+
+    Raises
+    ------
+    ValueError
+        If the dataset has no speed within 1e-9 (relative) of ``speed``.
+    """
+    rpm = np.atleast_1d(np.asarray(stars["rpm"].values, dtype=float))
+    if speed is None:
+        index = 0
+    else:
+        matches = np.flatnonzero(np.isclose(rpm, float(speed), rtol=1e-9, atol=0))
+        if not len(matches):
+            available = ", ".join(f"{v:g}" for v in rpm)
+            raise ValueError(f"speed {speed:g} rpm is not in the dataset (speeds {available} rpm)")
+        index = int(matches[0])
+    selected = stars.isel(speed=index) if "speed" in stars.dims else stars
+    return selected, float(rpm[index])
+
+
+def _new_axes(ax: Axes | None) -> Axes:
+    if ax is not None:
+        return ax
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(4.2, 4.6), layout="constrained").add_subplot()
+
+
+def _frame(ax: Axes, centre: tuple[float, float], half: float) -> None:
+    """Equal aspect showing at least the square of half-width ``half`` about
+    ``centre``; the limits grow along one axis to fill the axes' box, so the
+    layout engine can place the axes and their legend."""
+    ax.update_datalim([(centre[0] - half, centre[1] - half), (centre[0] + half, centre[1] + half)])
+    ax.margins(0)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
+
+
+def _star_arms(angles: np.ndarray) -> list[tuple[float, list[int]]]:
+    """Distinct arm angles and the cylinder indices on each, in order of angle
+    (coincident arms within ``_ARM_TOL``, also across 0 = 2π)."""
+    angles = np.mod(np.asarray(angles, dtype=float), 2 * np.pi)
+    arms: list[tuple[float, list[int]]] = []
+    for i in np.argsort(angles, kind="stable"):
+        a = float(angles[i])
+        if arms and a - arms[-1][0] <= _ARM_TOL:
+            arms[-1][1].append(int(i))
+        else:
+            arms.append((a, [int(i)]))
+    if len(arms) > 1 and arms[0][0] + 2 * np.pi - arms[-1][0] <= _ARM_TOL:
+        arms[0][1].extend(arms.pop()[1])
+    return arms
+
+
+def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
+    """Draw the crank star of one order.
+
+    One unit arm per cylinder at the angle k·φ_i, drawn in the w-plane
+    orientation (+z up, angles growing clockwise on the page, in the
+    direction of rotation). Coincident arms share one line and one label
+    (e.g. ``1,4``). For a multi-bank engine the arms are coloured by bank
+    (coincident arms of different banks side by side) and the legend gives
+    each bank's angle and whether its own star is regular.
+
+    Parameters
+    ----------
+    stars : xarray.Dataset
+        From :func:`harmbal.stars`.
+    order : int
+        The order k.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; default a new figure's single axes.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes drawn on. Each arm is a ``Line2D`` with gid
+        ``order<k>-star-arm-<labels>`` from the origin to (sin a, cos a).
+
+    Raises
+    ------
+    ValueError
+        If the order is not in the dataset.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import FancyArrowPatch
+
+    k = _check_order(stars, order)
+    ax = _new_axes(ax)
+    angles = np.asarray(stars["star_angle"].sel(order=k).values, dtype=float)
+    labels = [str(c) for c in stars["cylinder"].values]
+    banks = np.asarray(stars["bank"].values, dtype=float)
+    cylinder_bank = np.asarray(stars["cylinder_bank"].values, dtype=float)
+    bank_of = np.array([int(np.argmin(np.abs(np.remainder(b - banks + np.pi, 2 * np.pi) - np.pi)))
+                        for b in cylinder_bank])
+    multibank = len(banks) > 1
+    colours = [_colour(BANK_COLOURS[j % len(BANK_COLOURS)]) if multibank else _colour("black")
+               for j in range(len(banks))]
+
+    # Reference circle, θ = 0 mark and the direction of rotation.
+    circle = np.linspace(0, 2 * np.pi, 181)
+    ax.plot(np.sin(circle), np.cos(circle), color="0.75", lw=0.8, zorder=1)
+    ax.plot([0, 0], [1.0, 1.08], color="0.45", lw=0.8, zorder=1)
+    ax.text(0.02, 0.98, "arms at k·φ from +z", transform=ax.transAxes, ha="left", va="top", fontsize=7,
+            color="0.35")
+    a0, a1 = np.radians(110), np.radians(150)
+    ax.add_patch(FancyArrowPatch((1.42 * np.sin(a0), 1.42 * np.cos(a0)), (1.42 * np.sin(a1), 1.42 * np.cos(a1)),
+                                 connectionstyle="arc3,rad=-0.2", arrowstyle="-|>", mutation_scale=8,
+                                 color="0.45", lw=0.8, zorder=1))
+    ax.text(1.5 * np.sin(np.radians(130)), 1.5 * np.cos(np.radians(130)), "rotation", rotation=-40,
+            ha="left", va="top", fontsize=7, color="0.35")
+
+    for angle, members in _star_arms(angles):
+        direction = np.array([np.sin(angle), np.cos(angle)])
+        normal = np.array([direction[1], -direction[0]])
+        groups = [[i for i in members if bank_of[i] == j] for j in range(len(banks))]
+        groups = [(j, g) for j, g in enumerate(groups) if g]
+        for n, (j, group) in enumerate(groups):
+            shift = (n - (len(groups) - 1) / 2) * 0.05 * normal
+            text = ",".join(labels[i] for i in group)
+            end = direction + shift
+            ax.add_line(Line2D([shift[0], end[0]], [shift[1], end[1]], color=colours[j], lw=2.2,
+                               solid_capstyle="round", marker="o", markevery=[1], markersize=4.5,
+                               gid=f"order{k}-star-arm-{text}", zorder=3))
+            # Labels of coincident arms stack vertically on the page, away
+            # from the circle at the top and bottom, centred at the sides.
+            if direction[1] > 0.5:
+                dy = 0.15 * n
+            elif direction[1] < -0.5:
+                dy = -0.15 * n
+            else:
+                dy = 0.15 * ((len(groups) - 1) / 2 - n)
+            ha = "left" if direction[0] > 0.3 else ("right" if direction[0] < -0.3 else "center")
+            ax.text(1.14 * direction[0], 1.14 * direction[1] + dy, text, color=colours[j], ha=ha,
+                    va="center", fontsize=8, fontweight="bold", zorder=4)
+    ax.plot([0], [0], "o", color="0.2", markersize=3, zorder=4)
+
+    if multibank:
+        regular = np.asarray(stars["bank_star_regular"].sel(order=k).values, dtype=bool)
+        handles = [Line2D([], [], color=colours[j], lw=2.2,
+                          label=f"bank {np.degrees(b):+.4g}°" + (" (regular)" if regular[j] else ""))
+                   for j, b in enumerate(banks)]
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=7,
+                  frameon=False, ncols=min(len(handles), 2))
+    is_regular = bool(stars["star_regular"].sel(order=k))
+    resultant = abs(complex(stars["star_resultant"].sel(order=k)))
+    detail = "regular" if is_regular else f"not regular, |Σ| = {resultant:.3g}"
+    ax.set_title(f"Order {k} crank star: {detail}", fontsize=9)
+    _frame(ax, (0.0, 0.0), 1.7)
+    ax.set_xticks([-1, 0, 1])
+    ax.set_yticks([-1, 0, 1])
+    ax.tick_params(labelsize=7)
+    ax.set_xlabel(f"t = {_rotation_label(stars)} [unit arm]", fontsize=8)
+    ax.set_ylabel("z [unit arm]", fontsize=8)
+    return ax
+
+
+def phasor_chain(stars: xr.Dataset, order: int, quantity: str = "force",
+                 rotation: str = "co") -> tuple[list[str], np.ndarray, complex]:
+    """The arrows of one phasor chain, as drawn by :func:`phasor_diagram`.
+
+    Parameters
+    ----------
+    stars : xarray.Dataset
+        From :func:`harmbal.stars` at one speed (see :func:`select_speed`).
+    order : int
+        The order k.
+    quantity : {"force", "moment"}
+    rotation : {"co", "counter"}
+
+    Returns
+    -------
+    labels : list of str
+        Cylinder labels, plus ``"crankshaft"`` if the crankshaft
+        unbalances contribute more than the balanced tolerance.
+    phasors : numpy.ndarray
+        Complex phasors of the arrows, head to tail from the origin.
+    resultant : complex
+        The dataset's resultant (exactly 0 if balanced).
+    """
+    k = _check_order(stars, order)
+    if "speed" in stars.dims:
+        raise ValueError("select one speed first (harmbal.plots.select_speed)")
+    per_cylinder = np.asarray(stars[f"{quantity}_cylinder"].sel(order=k, rotation=rotation).values, dtype=complex)
+    resultant = complex(stars[f"{quantity}_rotating"].sel(order=k, rotation=rotation))
+    labels = [str(c) for c in stars["cylinder"].values]
+    crankshaft = resultant - per_cylinder.sum()
+    tol = float(stars.attrs.get("balanced_rtol", 1e-10)) * float(stars[f"{quantity}_scale"])
+    if abs(crankshaft) > tol:
+        labels.append("crankshaft")
+        per_cylinder = np.append(per_cylinder, crankshaft)
+    return labels, per_cylinder, resultant
+
+
+def phasor_diagram(stars: xr.Dataset, order: int, quantity: str = "force", ax: Axes | None = None,
+                   speed: float | None = None) -> Axes:
+    """Draw the co- and counter-rotating phasors of one order, cylinder by
+    cylinder.
+
+    Each cylinder's phasor (at θ = 0) is an arrow; the arrows of one sense of
+    rotation are placed head to tail from the origin, so the chain ends at
+    the resultant, drawn bold from the origin with its amplitude and phase in
+    the legend. Co-rotating phasors are blue, counter-rotating ones orange
+    (thinner, on top). A balanced resultant is a dot at the origin marked
+    "balanced". Crankshaft unbalances, if any, add one arrow at the end of
+    the chain. Orientation as :func:`crank_star`.
+
+    Parameters
+    ----------
+    stars : xarray.Dataset
+        From :func:`harmbal.stars`.
+    order : int
+        The order k.
+    quantity : {"force", "moment"}
+        Free force [N] or free moment about the reference point [N m].
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; default a new figure's single axes.
+    speed : float, optional
+        Crank speed in rpm if the dataset has several; default the first.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes drawn on. The chains are ``Quiver`` collections with gid
+        ``order<k>-<quantity>-<rotation>-cylinders`` (arrows from ``(X, Y)``
+        by ``(U, V)`` in page coordinates: horizontal t, vertical z), the
+        resultants ``order<k>-<quantity>-<rotation>-resultant`` (a
+        ``Quiver``, or a ``Line2D`` dot at the origin if balanced).
+
+    Raises
+    ------
+    ValueError
+        If the quantity, order or speed is not in the dataset.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import FuncFormatter
+
+    if quantity not in _QUANTITIES:
+        raise ValueError(f"quantity must be 'force' or 'moment', not {quantity!r}")
+    k = _check_order(stars, order)
+    sel, rpm = select_speed(stars, speed)
+    ax = _new_axes(ax)
+    name, symbol, unit = _QUANTITIES[quantity]
+
+    points = [0j]
+    handles = []
+    chains = {}
+    for rotation in ("co", "counter"):
+        labels, arrows, resultant = phasor_chain(sel, k, quantity, rotation)
+        heads = np.cumsum(arrows)
+        tails = heads - arrows
+        chains[rotation] = (labels, arrows, tails, resultant)
+        points.extend(heads)
+        points.append(resultant)
+    points = np.asarray(points)
+    x, y = _page(points)
+    half = max(np.ptp(x), np.ptp(y), np.abs(x).max(), np.abs(y).max()) * 0.55
+    if not half > 0:
+        half = 1.0
+    centre = ((x.max() + x.min()) / 2, (y.max() + y.min()) / 2)
+    span = 2 * half
+    exponent = _engineering(half)
+    factor = 10.0**exponent
+    free = {r: bool(sel[f"{quantity}_free"].sel(order=k, rotation=r)) for r in ("co", "counter")}
+
+    for rotation, width, z in (("co", 0.014, 3), ("counter", 0.008, 4)):
+        labels, arrows, tails, resultant = chains[rotation]
+        light, dark = (_colour(c) for c in ROTATION_COLOURS[rotation])
+        tx, ty = _page(tails)
+        u, v = _page(arrows)
+        ax.quiver(tx, ty, u, v, angles="xy", scale_units="xy", scale=1, units="width", width=width,
+                  headwidth=3.2, headlength=4.5, headaxislength=4, minlength=0, color=light, zorder=z,
+                  gid=f"order{k}-{quantity}-{rotation}-cylinders")
+        for place, text in _arrow_labels(labels, tails, arrows, span, 1 if rotation == "co" else -1):
+            px, py = _page(place)
+            ax.text(px, py, text, fontsize=6.5, color=dark, ha="center", va="center", zorder=6)
+        if free[rotation] and resultant != 0:
+            rx, ry = _page(resultant)
+            ax.quiver([0], [0], [rx], [ry], angles="xy", scale_units="xy", scale=1, units="width",
+                      width=0.028, headwidth=2.6, headlength=3.2, headaxislength=2.9, minlength=0,
+                      color=dark, alpha=0.55, zorder=2, gid=f"order{k}-{quantity}-{rotation}-resultant")
+            text = f"{rotation} Σ: {_quantity(abs(resultant), unit)} at {_degrees(resultant)}"
+            handles.append(Line2D([], [], color=dark, lw=4, alpha=0.7, label=text))
+        else:
+            ax.plot([0], [0], "o", color=dark, markersize=7 if rotation == "co" else 4, zorder=5,
+                    gid=f"order{k}-{quantity}-{rotation}-resultant")
+            handles.append(Line2D([], [], color=dark, marker="o", ls="none", label=f"{rotation}: balanced"))
+
+    ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+    ax.axvline(0, color="0.85", lw=0.6, zorder=0)
+    _frame(ax, centre, 1.1 * half)
+    scaled = FuncFormatter(lambda value, _: f"{value / factor:.4g}")
+    ax.xaxis.set_major_formatter(scaled)
+    ax.yaxis.set_major_formatter(scaled)
+    ax.tick_params(labelsize=7)
+    prefixed = f"{_PREFIXES[exponent]}{unit}"
+    ax.set_xlabel(f"{symbol} t = {_rotation_label(sel)} [{prefixed}]", fontsize=8)
+    ax.set_ylabel(f"{symbol} z [{prefixed}]", fontsize=8)
+    speed_text = f" at {rpm:.6g} rpm" if "speed" in stars.dims else ""
+    ax.set_title(f"{name}, order {k}{speed_text}: phasors at θ = 0", fontsize=9)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=7, frameon=False)
+    return ax
+
+
+def _arrow_labels(labels: list[str], tails: np.ndarray, arrows: np.ndarray, span: float,
+                  side: int) -> list[tuple[complex, str]]:
+    """Where to write the cylinder labels of a chain: beside the middle of
+    each arrow long enough to see (co- and counter-rotating labels on
+    opposite sides, whichever way the arrows point), labels that would
+    overlap joined as ``1,4``; none for more than ``_MAX_ARROW_LABELS``
+    arrows."""
+    if len(arrows) > _MAX_ARROW_LABELS:
+        return []
+    places: list[tuple[complex, list[str]]] = []
+    for label, tail, arrow in zip(labels, tails, arrows):
+        if abs(arrow) < 0.06 * span:
+            continue
+        normal = 1j * arrow / abs(arrow)
+        if (normal * np.exp(-0.3j)).real < 0:  # one fixed side whichever way the arrow points
+            normal = -normal
+        place = tail + arrow / 2 + side * 0.035 * span * normal
+        text = "cs" if label == "crankshaft" else label
+        for other, texts in places:
+            if abs(other - place) < 0.04 * span:
+                texts.append(text)
+                break
+        else:
+            places.append((place, [text]))
+    return [(place, ",".join(texts)) for place, texts in places]
+
+
+def default_orders(stars: xr.Dataset) -> list[int]:
+    """Orders :func:`stars_figure` draws by default: 1, 2 and every order up
+    to ``DEFAULT_MAX_ORDER`` with a free co- or counter-rotating force or
+    moment, at most ``DEFAULT_MAX_ROWS``."""
+    available = {int(k) for k in stars["order"].values}
+    free = (stars["force_free"] | stars["moment_free"]).any("rotation")
+    orders = {1, 2} | {int(k) for k in stars["order"].values[free.values] if 1 <= k <= DEFAULT_MAX_ORDER}
+    return sorted(orders & available)[:DEFAULT_MAX_ROWS]
+
+
+def stars_figure(stars: xr.Dataset, orders: Sequence[int] | None = None, speed: float | None = None) -> Figure:
+    """Crank star, force and moment phasor diagrams, one row per order.
+
+    Parameters
+    ----------
+    stars : xarray.Dataset
+        From :func:`harmbal.stars`.
+    orders : sequence of int, optional
+        Orders to draw (≥ 1, each once, in the order given); default
+        :func:`default_orders`.
+    speed : float, optional
+        Crank speed in rpm if the dataset has several; default the first.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three axes per order (crank star, force, moment); not attached to
+        pyplot.
+
+    Raises
+    ------
+    ValueError
+        If an order or the speed is not in the dataset, or no order is given.
+    """
+    from matplotlib.figure import Figure
+
+    if orders is None:
+        orders = default_orders(stars)
+    if not len(orders):
+        raise ValueError("no orders to draw")
+    for k in orders:
+        if not k >= 1:
+            raise ValueError(f"orders must be positive, not {k!r}")
+    orders = list(dict.fromkeys(_check_order(stars, k) for k in orders))
+    sel, rpm = select_speed(stars, speed)
+    rows = len(orders)
+    fig = Figure(figsize=(11.5, 4.1 * rows + 0.9), layout="constrained")
+    axes = fig.subplots(rows, 3, squeeze=False)
+    for row, k in zip(axes, orders):
+        crank_star(sel, k, row[0])
+        phasor_diagram(sel, k, "force", row[1])
+        phasor_diagram(sel, k, "moment", row[2])
+    engine = stars.attrs.get("engine", "")
+    view = "front" if _rotation_label(stars) == "+y" else "rear"
+    fig.suptitle(f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", fontsize=12)
+    fig.supxlabel(f"+z up, angles clockwise in the direction of rotation, t = {_rotation_label(stars)} to the "
+                  f"right (the engine seen from the {view}; {stars.attrs.get('rotation', 'clockwise')} "
+                  "rotation); moments about the reference point; cs = crankshaft unbalances\n"
+                  f"firing order {stars.attrs.get('firing_order', '?')}", fontsize=7, color="0.3")
+    return fig
+
+
+def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
+    """Write a figure as SVG or PNG (by extension), atomically.
+
+    The file is written next to its destination and moved into place only
+    when complete, so a failed write leaves no file behind. SVG output keeps
+    text as text and is deterministic (fixed hash salt, no date).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : path-like
+        Destination ending in ``.svg`` or ``.png``.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        If the extension is neither ``.svg`` nor ``.png``.
+    """
+    import matplotlib
+
+    path = Path(path)
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt not in FIGURE_FORMATS:
+        raise ValueError(f"{path}: figures are written as .svg or .png, not {path.suffix or 'no extension'!r}")
+    options = {"svg": {"metadata": {"Date": None}}, "png": {"dpi": 150}}[fmt]
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        with matplotlib.rc_context({"svg.hashsalt": "harmbal", "svg.fonttype": "none"}):
+            fig.savefig(tmp, format=fmt, **options)
+        os.chmod(tmp, 0o644)  # mkstemp makes it private; a figure is not
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

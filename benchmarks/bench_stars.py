@@ -22,7 +22,6 @@ docs/performance.md records the figures and the machine.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import functools
 import os
 import platform
@@ -39,15 +38,10 @@ SAMPLINGS = {"default": None, "1024": 1024}
 
 
 @functools.cache
-def scene(engine: str, samples: int | None):
-    """The engine's scene; with ``samples``, its sampling fixed to that count
-    (``stars`` has no ``samples_per_rev`` argument, so the scene carries it)."""
+def scene(engine: str):
     import harmbal as hb
 
-    s = hb.load_scene(ENGINES / SCENES[engine])
-    if samples is not None:
-        s = dataclasses.replace(s, sampling=dataclasses.replace(s.sampling, samples_per_rev=samples, accuracy=None))
-    return s
+    return hb.load_scene(ENGINES / SCENES[engine])
 
 
 def _order_phasors(s, n):
@@ -57,11 +51,9 @@ def _order_phasors(s, n):
 
 
 def _stars(s, n):
-    # ``from harmbal.crank_stars import stars``, not ``hb.stars``: once the
-    # submodule harmbal.stars is imported, ``hb.stars`` may be the module.
     from harmbal.crank_stars import stars
 
-    return stars(s)
+    return stars(s, samples_per_rev=n)
 
 
 def _time_domain(s, n):
@@ -93,7 +85,7 @@ PATHS = {
 def samples_used(engine: str, samples: int | None) -> int:
     from harmbal.timedomain import choose_samples
 
-    return choose_samples(scene(engine, samples))
+    return samples or choose_samples(scene(engine))
 
 
 def check_agreement(engine: str, samples: int | None) -> float:
@@ -101,7 +93,7 @@ def check_agreement(engine: str, samples: int | None) -> float:
     to the force scale (a guard that both paths compute the same thing)."""
     import numpy as np
 
-    s = scene(engine, samples)
+    s = scene(engine)
     order = _order_phasors(s, samples).force
     time = _time_domain_arrays(s, samples)[0]
     return float(np.abs(order - time).max() / _order_phasors(s, samples).peak_force.sum())
@@ -121,7 +113,7 @@ if pytest is not None:
     @pytest.mark.parametrize("engine", list(SCENES))
     def test_path(benchmark, engine, sampling, path):
         samples = SAMPLINGS[sampling]
-        s = scene(engine, samples)
+        s = scene(engine)
         function = PATHS[path]
         function(s, samples)  # warm-up: imports, FFT plans
         benchmark.group = f"{engine}, {sampling} sampling ({samples_used(engine, samples)} samples/rev)"
@@ -152,7 +144,7 @@ def main() -> None:
     times = {}
     for engine, sampling in columns:
         samples = SAMPLINGS[sampling]
-        s = scene(engine, samples)
+        s = scene(engine)
         agreement = check_agreement(engine, samples)
         assert agreement < 1e-9, f"{engine} {sampling}: paths differ by {agreement:.1e} of the force scale"
         for path, function in PATHS.items():
@@ -161,7 +153,7 @@ def main() -> None:
     print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
           f"{platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
           f"xarray {xarray.__version__}, harmbal {hb.__version__}; min of {args.repeat} timeit repeats")
-    header = [f"{e} ({len(scene(e, SAMPLINGS[p]).cylinders)} cyl), {samples_used(e, SAMPLINGS[p])} samples/rev"
+    header = [f"{e} ({len(scene(e).cylinders)} cyl), {samples_used(e, SAMPLINGS[p])} samples/rev"
               for e, p in columns]
     print("| path | " + " | ".join(header) + " |")
     print("|---" * (len(columns) + 1) + "|")

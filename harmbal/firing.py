@@ -65,7 +65,7 @@ class Firing:
 def tdc_angles(throw, bank, crank_radius, rod_length, offset) -> np.ndarray:
     """Crank angles θ in [0, 2π) at which each cylinder is at TDC [rad]."""
     psi = np.arcsin(np.asarray(offset, float) / (np.asarray(rod_length, float) + np.asarray(crank_radius, float)))
-    return np.mod(psi - np.asarray(throw, float) + np.asarray(bank, float), TWO_PI)
+    return _canonical(psi - np.asarray(throw, float) + np.asarray(bank, float))
 
 
 def _canonical(angles: np.ndarray) -> np.ndarray:

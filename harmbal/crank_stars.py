@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .balancers import shaft_phasors
 from .firing import firing
 from .orders import BALANCED_RTOL, ROTATION, aliasing_estimate, is_balanced, phasors, rotating_split
 from .scene import Cylinder, Scene
@@ -174,6 +175,11 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
             crank_force[1:, 1] += (fy, fz)
             crank_moment[1:, 1] += (my, mz)
             crank_peak += u.unbalance
+    shafts = scene.shafts if "balancers" in scene.model.effects else ()
+    if shafts:
+        shaft_force, shaft_moment = shaft_phasors(shafts, kmax, sense)
+        crank_force += shaft_force
+        crank_moment += shaft_moment
 
     ref = np.asarray(scene.reference_point, dtype=float)
     moment = moment_about(ref, force, moment)
@@ -183,11 +189,18 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
     lever = np.hypot(lever, np.hypot(ref[1], ref[2]))
     crank_lever = max([0.0] + [float(np.hypot(u.x - ref[0], np.hypot(ref[1], ref[2])))
                                for u in scene.crankshaft_unbalances])
+    shaft_peak_force = shaft_peak_moment = 0.0
+    for shaft in shafts:
+        n2 = shaft.ratio**2
+        shaft_peak_force += n2 * sum(u.unbalance for u in shaft.unbalances)
+        shaft_peak_moment += n2 * (abs(shaft.couple) + sum(
+            u.unbalance * float(np.linalg.norm(np.array([u.x, shaft.y, shaft.z]) - ref)) for u in shaft.unbalances))
     return OrderPhasors(
         force_cylinder=force, moment_cylinder=moment,
         force_crankshaft=crank_force, moment_crankshaft=crank_moment,
         peak_force=peak_force, peak_moment=peak_roll + lever * peak_force,
-        crankshaft_peak_force=crank_peak, crankshaft_peak_moment=crank_lever * crank_peak,
+        crankshaft_peak_force=crank_peak + shaft_peak_force,
+        crankshaft_peak_moment=crank_lever * crank_peak + shaft_peak_moment,
         alias_force=alias_force, alias_moment=alias_roll + lever * alias_force,
         samples_per_rev=n, groups=len(representatives),
     )

@@ -65,7 +65,8 @@ class Firing:
 def tdc_angles(throw, bank, crank_radius, rod_length, offset) -> np.ndarray:
     """Crank angles θ in [0, 2π) at which each cylinder is at TDC [rad]."""
     psi = np.arcsin(np.asarray(offset, float) / (np.asarray(rod_length, float) + np.asarray(crank_radius, float)))
-    return _canonical(psi - np.asarray(throw, float) + np.asarray(bank, float))
+    angles = np.mod(psi - np.asarray(throw, float) + np.asarray(bank, float), TWO_PI)
+    return np.where(angles < TWO_PI, angles, 0.0)  # mod of a tiny negative angle rounds to 2π
 
 
 def _canonical(angles: np.ndarray) -> np.ndarray:

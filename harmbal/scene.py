@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
+from .balancers import PRODUCT_CONVENTIONS, Shaft, ShaftUnbalance, couple_from_moment, couple_from_products
 from .units import QuantityError, to_si
 
-EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque")
+EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
 ROD_MODELS = ("rigid", "two_point", "two_point_couple")
 PISTON_MODELS = ("exact", "series")
 ROTATIONS = ("clockwise", "counterclockwise")
@@ -166,6 +167,9 @@ class Scene:
     reference_point: tuple[float, float, float]
     cylinders: tuple[Cylinder, ...]
     crankshaft_unbalances: tuple[Unbalance, ...] = ()
+    #: Balance shafts, Lanchester pairs (two shafts each) and the crankshaft's
+    #: CAD mass data (a shaft at ratio 1 on the crank axis).
+    shafts: tuple[Shaft, ...] = ()
     model: Model = field(default_factory=Model)
     sampling: Sampling = field(default_factory=Sampling)
     description: str = ""
@@ -232,7 +236,7 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
 
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
-    "throw_unbalance", "cylinder", "crankshaft_unbalance",
+    "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "balance_shaft", "lanchester_pair",
 }
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
@@ -243,6 +247,11 @@ _ROD_RIGID_KEYS = {"mass", "cg_from_big_end", "cg_offset", "inertia"}
 _ROD_SPLIT_KEYS = {"mass_big_end", "mass_small_end"}
 _CYLINDER_KEYS = {"label", "throw", "bank", "axial_position", "geometry", "piston", "rod", "throw_unbalance"}
 _UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle"}
+_PRODUCT_KEYS = {"xy", "xz", "convention"}
+_SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia",
+               "axial_position"}
+_CRANKSHAFT_KEYS = {"mass", "cg_offset", "axial_position", "products_of_inertia"}
+_LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "axial_position", "heights", "lateral"}
 
 
 class _Reader:
@@ -367,10 +376,109 @@ class _Reader:
         crankshaft = tuple(self.unbalances(data.get("crankshaft_unbalance", []), "crankshaft_unbalance",
                                            "axial_position"))
         firing_order = self.firing_order(engine, cylinders, cycle)
+        sense = 1 if rotation == "counterclockwise" else -1
+        shafts = (self.crankshaft(data, sense) + self.balance_shafts(data.get("balance_shaft", []), sense)
+                  + self.lanchester_pairs(data.get("lanchester_pair", [])))
         return Scene(name=name, description=description, cycle=cycle, rotation=rotation, speeds=speeds,
-                     reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft,
+                     reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts,
                      model=model, sampling=sampling, firing_order=firing_order, source=self.source,
                      source_text=text)
+
+    # -- balancer elements -------------------------------------------------
+
+    def array(self, raw: Any, path: str) -> list[tuple[str, Mapping]]:
+        """Entries of an array of tables with their key paths."""
+        if not isinstance(raw, list) or not all(isinstance(e, Mapping) for e in raw):
+            self.fail(path, raw, "must be an array of tables ([[...]])")
+            return []
+        return [(f"{path}[{i + 1}]", e) for i, e in enumerate(raw)]
+
+    def position(self, table: Mapping, key: str, path: str) -> tuple[float, float]:
+        """A transverse position [y, z]."""
+        y, z = self.quantity_list(table, key, path, "length", 2, [0, 0])
+        return y, z
+
+    def couple(self, entry: Mapping, path: str, sense: int) -> complex:
+        """A couple unbalance as a moment with its angle or as products of
+        inertia with a named convention (not both)."""
+        if "couple" in entry and "products_of_inertia" in entry:
+            self.fail(path, sorted(entry), "give couple (with couple_angle) or products_of_inertia, not both")
+            return 0j
+        if "couple" in entry:
+            size = self.quantity(entry, "couple", path, "inertia", nonnegative=True)
+            return couple_from_moment(size, self.quantity(entry, "couple_angle", path, "angle", default=0.0))
+        if "couple_angle" in entry:
+            self.fail(_join(path, "couple_angle"), entry["couple_angle"], "only with couple")
+        if "products_of_inertia" not in entry:
+            return 0j
+        where = _join(path, "products_of_inertia")
+        products = self.table(entry, "products_of_inertia", where, _PRODUCT_KEYS)
+        if "convention" not in products:
+            self.fail(_join(where, "convention"), _MISSING,
+                      "missing: name the sign convention, 'integral' (J_xy = +∫xy dm) or 'tensor' (−∫xy dm)")
+            return 0j
+        convention = self.choice(products, "convention", where, PRODUCT_CONVENTIONS, "integral")
+        j_xy = self.quantity(products, "xy", where, "inertia", default=0.0)
+        j_xz = self.quantity(products, "xz", where, "inertia", default=0.0)
+        return couple_from_products(j_xy, j_xz, convention, sense)
+
+    def balance_shafts(self, raw: Any, sense: int) -> tuple[Shaft, ...]:
+        shafts = []
+        for path, entry in self.array(raw, "balance_shaft"):
+            self.unknown(entry, path, _SHAFT_KEYS)
+            label = entry.get("label", f"shaft {len(shafts) + 1}")
+            ratio = entry.get("ratio", _MISSING)
+            if ratio is _MISSING:
+                self.fail(_join(path, "ratio"), ratio, "missing: the speed ratio n (negative turns against the crank)")
+                ratio = 1
+            elif isinstance(ratio, bool) or not isinstance(ratio, int) or ratio == 0:
+                self.fail(_join(path, "ratio"), ratio, "must be a non-zero integer (negative turns against the crank)")
+                ratio = 1
+            y, z = self.position(entry, "axis_position", path)
+            unbalances = tuple(ShaftUnbalance(u.unbalance, u.angle, u.x) for u in
+                               self.unbalances(entry.get("unbalance", []), _join(path, "unbalance"), "axial_position"))
+            x = self.quantity(entry, "axial_position", path, "length", default=0.0)
+            shafts.append(Shaft(str(label), ratio, y, z, unbalances, self.couple(entry, path, sense), x))
+        return tuple(shafts)
+
+    def crankshaft(self, data: Mapping, sense: int) -> tuple[Shaft, ...]:
+        """The crankshaft's CAD mass data as a shaft turning with the crank."""
+        if "crankshaft" not in data:
+            return ()
+        entry = self.table(data, "crankshaft", "crankshaft", _CRANKSHAFT_KEYS)
+        mass = self.quantity(entry, "mass", "crankshaft", "mass", positive=True)
+        y, z = self.position(entry, "cg_offset", "crankshaft")
+        x = self.quantity(entry, "axial_position", "crankshaft", "length", default=0.0)
+        w = complex(z, -sense * y)  # w = z + i·t, t = −sense·y
+        unbalances = (ShaftUnbalance(mass * abs(w), math.atan2(w.imag, w.real), x),) if w else ()
+        return (Shaft("crankshaft", 1, 0.0, 0.0, unbalances, self.couple(entry, "crankshaft", sense), x),)
+
+    def lanchester_pairs(self, raw: Any) -> tuple[Shaft, ...]:
+        """Each pair: two shafts at +n and −n with equal unbalances pointing
+        the same way at θ = 0, at given heights (z) and lateral positions (y)."""
+        shafts = []
+        for path, entry in self.array(raw, "lanchester_pair"):
+            self.unknown(entry, path, _LANCHESTER_KEYS)
+            label = str(entry.get("label", f"Lanchester pair {len(shafts) // 2 + 1}"))
+            if "order" in entry:
+                order = self.integer(entry, "order", path, 1, 1)
+            else:
+                self.fail(_join(path, "order"), _MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
+                order = 1
+            if "unbalance" in entry and ("mass" in entry or "radius" in entry):
+                self.fail(path, sorted(entry), "give unbalance (mass x radius) or mass and radius, not both")
+            if "unbalance" in entry or not ("mass" in entry or "radius" in entry):
+                u = self.quantity(entry, "unbalance", path, "unbalance", positive=True)
+            else:
+                u = (self.quantity(entry, "mass", path, "mass", positive=True)
+                     * self.quantity(entry, "radius", path, "length", positive=True))
+            angle = self.quantity(entry, "angle", path, "angle", default=0.0)
+            x = self.quantity(entry, "axial_position", path, "length", default=0.0)
+            heights = self.quantity_list(entry, "heights", path, "length", 2, [0, 0])
+            lateral = self.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
+            for ratio, y, z, side in ((order, lateral[0], heights[0], "+"), (-order, lateral[1], heights[1], "−")):
+                shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z, (ShaftUnbalance(u, angle, x),), 0j, x))
+        return tuple(shafts)
 
     def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:
         """The firing order as cylinder indices, checked against the geometry."""

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import loads
+from .balancers import shaft_loads
 from ._version import __version__
 from .kinematics import crank_pin, decay_rate, slider_crank
 from .scene import EFFECTS, Scene
@@ -30,7 +31,7 @@ CONVENTIONS = (
 @dataclass(frozen=True)
 class UnitSpeedLoads:
     """Loads at ω = 1 rad/s about the origin: per cylinder (cylinder, axis,
-    angle) and from crankshaft unbalances (axis, angle)."""
+    angle) and from crankshaft unbalances and balance shafts (axis, angle)."""
 
     theta: np.ndarray
     force_cylinder: np.ndarray
@@ -169,6 +170,9 @@ def unit_speed_loads(scene: Scene, samples_per_rev: int) -> UnitSpeedLoads:
             f, m = loads.rotating_unbalance(theta[None, :] + _column([u.angle for u in ub]),
                                             _column([u.unbalance for u in ub]), _column([u.x for u in ub]), sense)
             crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
+    if "balancers" in scene.model.effects and scene.shafts:
+        f, m = shaft_loads(scene.shafts, theta, sense)
+        crank_force, crank_moment = crank_force + f, crank_moment + m
     return UnitSpeedLoads(theta, force, moment, crank_force, crank_moment)
 
 

@@ -1,0 +1,131 @@
+"""Rotating balancer elements: balance shafts and the crankshaft's own mass data.
+
+A :class:`Shaft` turns at ``ratio`` × crank speed (n, a non-zero integer;
+negative turns against the crank) about an axis parallel to the crank axis
+at (y, z). It carries static unbalances (mass × radius at an angle and an
+axial position) and a couple unbalance. Its loads on the block at constant
+speed are pure order-|n| rotating vectors: co-rotating for n > 0,
+counter-rotating for n < 0.
+
+Angles are measured at θ = 0 from +z in the crank's direction of rotation,
+like crank angles; transverse vectors are written w = v_z + i·v_t with
+t 90° ahead of +z in the direction of rotation (t = −sense·y), see
+docs/conventions.md.
+
+Couple unbalance. A body spinning about the x axis at Ω with its CG on the
+axis exerts on its bearings the moment M = Ω²·(0, −J_xz, J_xy), with the
+products of inertia J_xy = ∫x·y dm and J_xz = ∫x·z dm about the body's
+reference point, taken in the engine frame at θ = 0 (the moment turns with
+the body). In the w-plane that is w_M(θ = 0) = Ω²·(J_xy + i·sense·J_xz): the
+complex ``couple`` [kg m²] stored here. CAD and multibody tools differ in the
+sign of products of inertia (the inertia tensor holds D = −∫x·y dm), so scene
+input names its convention.
+"""
+
+from __future__ import annotations
+
+import cmath
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Sign conventions for products of inertia: "integral" is J_xy = +∫x·y dm;
+#: "tensor" is the inertia-tensor entry D_xy = −∫x·y dm.
+PRODUCT_CONVENTIONS = ("integral", "tensor")
+
+
+@dataclass(frozen=True)
+class ShaftUnbalance:
+    """Static unbalance on a shaft: mass × radius [kg m] pointing at ``angle``
+    [rad] at θ = 0, at axial position ``x`` [m]."""
+
+    unbalance: float
+    angle: float
+    x: float
+
+
+@dataclass(frozen=True)
+class Shaft:
+    """A body turning at ``ratio`` × crank speed about the axis through
+    (``y``, ``z``) parallel to x.
+
+    ``couple`` is the complex couple unbalance [kg m²] in the w-plane at
+    θ = 0 (see the module docstring); ``x`` is the reference point of the
+    couple (the moment of a couple does not depend on it, but the products of
+    inertia it was computed from do).
+    """
+
+    label: str
+    ratio: int
+    y: float
+    z: float
+    unbalances: tuple[ShaftUnbalance, ...] = ()
+    couple: complex = 0j
+    x: float = 0.0
+
+
+def couple_from_products(j_xy: float, j_xz: float, convention: str, sense: int) -> complex:
+    """The complex couple unbalance [kg m²] from products of inertia about the
+    shaft's reference point, in the engine frame at θ = 0."""
+    if convention not in PRODUCT_CONVENTIONS:
+        raise ValueError(f"unknown product-of-inertia convention {convention!r}")
+    sign = 1.0 if convention == "integral" else -1.0
+    return complex(sign * j_xy, sign * sense * j_xz)
+
+
+def couple_from_moment(moment: float, angle: float) -> complex:
+    """The complex couple unbalance from its size [kg m²] (moment / Ω²) and the
+    direction [rad] of its moment vector at θ = 0."""
+    return cmath.rect(moment, angle)
+
+
+def shaft_amplitudes(shaft: Shaft, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-axis complex amplitudes P at unit crank speed of one shaft's force
+    and moment about the origin: each load is Re(P·e^{inθ}), n the ratio.
+
+    The static unbalances make the transverse force w_F = n²·Σ U·e^{iα}
+    (w-plane, at θ = 0), acting on the shaft axis (y_a, z_a) at their axial
+    positions: its moment is i·sense·x·w per unbalance, and the roll moment
+    M_x = y_a·F_z − z_a·F_y = Re(w_F·(y_a − i·sense·z_a)). The couple adds
+    n²·couple to the transverse moment. In the engine frame F_z = Re(w),
+    F_y = −sense·Im(w) = Re(i·sense·w).
+    """
+    n2 = shaft.ratio**2
+    w_force = sum((n2 * cmath.rect(u.unbalance, u.angle) for u in shaft.unbalances), 0j)
+    w_moment = n2 * shaft.couple + sum((1j * sense * u.x * n2 * cmath.rect(u.unbalance, u.angle)
+                                        for u in shaft.unbalances), 0j)
+    roll = w_force * (shaft.y - 1j * sense * shaft.z)
+    force = np.array([0j, 1j * sense * w_force, w_force])
+    moment = np.array([roll, 1j * sense * w_moment, w_moment])
+    return force, moment
+
+
+def shaft_loads(shafts: tuple[Shaft, ...], theta: np.ndarray, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    """Force and moment about the origin of the shafts at unit crank speed over
+    the crank angles ``theta``, summed: arrays (axis, angle)."""
+    force = np.zeros((3, len(theta)))
+    moment = np.zeros((3, len(theta)))
+    for shaft in shafts:
+        p_force, p_moment = shaft_amplitudes(shaft, sense)
+        turn = np.exp(1j * shaft.ratio * theta)
+        force += (p_force[:, None] * turn).real
+        moment += (p_moment[:, None] * turn).real
+    return force, moment
+
+
+def shaft_phasors(shafts: tuple[Shaft, ...], max_order: int, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    """Order phasors C_k (s = Σ Re(C_k e^{ikθ})) of the shafts' force and
+    moment about the origin at unit crank speed, summed: arrays (axis, order).
+    Re(P·e^{inθ}) is order |n| with phasor P for n > 0 and conj(P) for n < 0."""
+    force = np.zeros((3, max_order + 1), dtype=complex)
+    moment = np.zeros((3, max_order + 1), dtype=complex)
+    for shaft in shafts:
+        k = abs(shaft.ratio)
+        if k > max_order:
+            continue
+        p_force, p_moment = shaft_amplitudes(shaft, sense)
+        if shaft.ratio < 0:
+            p_force, p_moment = np.conj(p_force), np.conj(p_moment)
+        force[:, k] += p_force
+        moment[:, k] += p_moment
+    return force, moment

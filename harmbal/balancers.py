@@ -50,9 +50,7 @@ class Shaft:
     (``y``, ``z``) parallel to x.
 
     ``couple`` is the complex couple unbalance [kg m²] in the w-plane at
-    θ = 0 (see the module docstring); ``x`` is the reference point of the
-    couple (the moment of a couple does not depend on it, but the products of
-    inertia it was computed from do).
+    θ = 0 (see the module docstring).
     """
 
     label: str
@@ -61,7 +59,6 @@ class Shaft:
     z: float
     unbalances: tuple[ShaftUnbalance, ...] = ()
     couple: complex = 0j
-    x: float = 0.0
 
 
 def couple_from_products(j_xy: float, j_xz: float, convention: str, sense: int) -> complex:

@@ -248,8 +248,7 @@ _ROD_SPLIT_KEYS = {"mass_big_end", "mass_small_end"}
 _CYLINDER_KEYS = {"label", "throw", "bank", "axial_position", "geometry", "piston", "rod", "throw_unbalance"}
 _UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle"}
 _PRODUCT_KEYS = {"xy", "xz", "convention"}
-_SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia",
-               "axial_position"}
+_SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia"}
 _CRANKSHAFT_KEYS = {"mass", "cg_offset", "axial_position", "products_of_inertia"}
 _LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "axial_position", "heights", "lateral"}
 
@@ -437,8 +436,7 @@ class _Reader:
             y, z = self.position(entry, "axis_position", path)
             unbalances = tuple(ShaftUnbalance(u.unbalance, u.angle, u.x) for u in
                                self.unbalances(entry.get("unbalance", []), _join(path, "unbalance"), "axial_position"))
-            x = self.quantity(entry, "axial_position", path, "length", default=0.0)
-            shafts.append(Shaft(str(label), ratio, y, z, unbalances, self.couple(entry, path, sense), x))
+            shafts.append(Shaft(str(label), ratio, y, z, unbalances, self.couple(entry, path, sense)))
         return tuple(shafts)
 
     def crankshaft(self, data: Mapping, sense: int) -> tuple[Shaft, ...]:
@@ -451,7 +449,7 @@ class _Reader:
         x = self.quantity(entry, "axial_position", "crankshaft", "length", default=0.0)
         w = complex(z, -sense * y)  # w = z + i·t, t = −sense·y
         unbalances = (ShaftUnbalance(mass * abs(w), math.atan2(w.imag, w.real), x),) if w else ()
-        return (Shaft("crankshaft", 1, 0.0, 0.0, unbalances, self.couple(entry, "crankshaft", sense), x),)
+        return (Shaft("crankshaft", 1, 0.0, 0.0, unbalances, self.couple(entry, "crankshaft", sense)),)
 
     def lanchester_pairs(self, raw: Any) -> tuple[Shaft, ...]:
         """Each pair: two shafts at +n and −n with equal unbalances pointing
@@ -465,19 +463,13 @@ class _Reader:
             else:
                 self.fail(_join(path, "order"), _MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
                 order = 1
-            if "unbalance" in entry and ("mass" in entry or "radius" in entry):
-                self.fail(path, sorted(entry), "give unbalance (mass x radius) or mass and radius, not both")
-            if "unbalance" in entry or not ("mass" in entry or "radius" in entry):
-                u = self.quantity(entry, "unbalance", path, "unbalance", positive=True)
-            else:
-                u = (self.quantity(entry, "mass", path, "mass", positive=True)
-                     * self.quantity(entry, "radius", path, "length", positive=True))
+            u = self.unbalance_size(entry, path)
             angle = self.quantity(entry, "angle", path, "angle", default=0.0)
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
             heights = self.quantity_list(entry, "heights", path, "length", 2, [0, 0])
             lateral = self.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
             for ratio, y, z, side in ((order, lateral[0], heights[0], "+"), (-order, lateral[1], heights[1], "−")):
-                shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z, (ShaftUnbalance(u, angle, x),), 0j, x))
+                shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z, (ShaftUnbalance(u, angle, x),)))
         return tuple(shafts)
 
     def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:
@@ -653,6 +645,16 @@ class _Reader:
                       f"missing: model.rod = {model.rod!r} needs the rod's moment of inertia about its CG")
         return ConRod(mass, cg, lateral, inertia)
 
+    def unbalance_size(self, entry: Mapping, where: str) -> float:
+        """Mass × radius [kg m], given as ``unbalance`` or as ``mass`` and ``radius``."""
+        if "unbalance" in entry and ("mass" in entry or "radius" in entry):
+            self.fail(where, sorted(entry), "give unbalance (mass x radius) or mass and radius, not both")
+            return math.nan
+        if "unbalance" in entry or not ("mass" in entry or "radius" in entry):
+            return self.quantity(entry, "unbalance", where, "unbalance", positive=True)
+        return (self.quantity(entry, "mass", where, "mass", positive=True)
+                * self.quantity(entry, "radius", where, "length", positive=True))
+
     def unbalances(self, raw: Any, path: str, position_key: str) -> list[Unbalance]:
         entries = [raw] if isinstance(raw, Mapping) else raw
         if not isinstance(entries, list) or not all(isinstance(u, Mapping) for u in entries):
@@ -662,14 +664,7 @@ class _Reader:
         for i, entry in enumerate(entries):
             where = path if isinstance(raw, Mapping) else f"{path}[{i + 1}]"
             self.unknown(entry, where, _UNBALANCE_KEYS | {position_key})
-            if "unbalance" in entry and ("mass" in entry or "radius" in entry):
-                self.fail(where, sorted(entry), "give unbalance (mass x radius) or mass and radius, not both")
-                continue
-            if "unbalance" in entry or not ("mass" in entry or "radius" in entry):
-                u = self.quantity(entry, "unbalance", where, "unbalance", positive=True)
-            else:
-                u = (self.quantity(entry, "mass", where, "mass", positive=True)
-                     * self.quantity(entry, "radius", where, "length", positive=True))
+            u = self.unbalance_size(entry, where)
             angle = self.quantity(entry, "angle", where, "angle", default=0.0)
             x = self.quantity(entry, position_key, where, "length", default=0.0)
             result.append(Unbalance(u, angle, x))

@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .balancers import shaft_phasors
-from .firing import firing
+from .balancers import Shaft, ShaftUnbalance, shaft_amplitudes, shaft_phasors
+from .firing import cylinder_firing
 from .orders import BALANCED_RTOL, ROTATION, aliasing_estimate, is_balanced, phasors, rotating_split
 from .scene import Cylinder, Scene
 from .timedomain import AXES, attributes, choose_samples, moment_about, planar_loads, speed_axis
@@ -96,13 +96,11 @@ def cylinder_groups(cylinders: tuple[Cylinder, ...]) -> tuple[list[Cylinder], np
     return representatives, index
 
 
-def _unbalance_phasors(angle, unbalance, x, sense: int):
-    """First-order force and moment (about the origin) phasors of static
-    unbalances at ``angle`` from +z: w = U·e^{i(θ + angle)}, so
-    F_z = Re(U e^{i angle} e^{iθ}) and F_y = −sense·Re(−i U e^{i angle} e^{iθ})."""
-    p = unbalance * np.exp(1j * angle)
-    fy, fz = 1j * sense * p, p
-    return fy, fz, -x * fz, x * fy
+def _unbalance_phasors(angle: float, u, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    """First-order force and moment (about the origin) phasors per axis of a
+    static unbalance ``u`` turning with the crank on its axis, pointing at
+    ``angle``: a shaft at ratio 1 (:func:`harmbal.balancers.shaft_amplitudes`)."""
+    return shaft_amplitudes(Shaft("", 1, 0.0, 0.0, (ShaftUnbalance(u.unbalance, angle, u.x),)), sense)
 
 
 def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy") -> OrderPhasors:
@@ -166,14 +164,14 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
     if rotating:
         for i, c in enumerate(cyls):
             for u in c.throw_unbalances:
-                fy, fz, my, mz = _unbalance_phasors(c.throw + u.angle, u.unbalance, u.x, sense)
-                force[i, 1:, 1] += (fy, fz)
-                moment[i, 1:, 1] += (my, mz)
+                f, m = _unbalance_phasors(c.throw + u.angle, u, sense)
+                force[i, :, 1] += f
+                moment[i, :, 1] += m
                 peak_force[i] += u.unbalance
         for u in scene.crankshaft_unbalances:
-            fy, fz, my, mz = _unbalance_phasors(u.angle, u.unbalance, u.x, sense)
-            crank_force[1:, 1] += (fy, fz)
-            crank_moment[1:, 1] += (my, mz)
+            f, m = _unbalance_phasors(u.angle, u, sense)
+            crank_force[:, 1] += f
+            crank_moment[:, 1] += m
             crank_peak += u.unbalance
     shafts = scene.shafts if "balancers" in scene.model.effects else ()
     if shafts:
@@ -206,27 +204,32 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
     )
 
 
+def star_arms(angles: np.ndarray, tol: float = STAR_TOL) -> list[tuple[float, list[int]]]:
+    """Distinct arms of a crank star: each arm's angle [rad, in [0, 2π)] and
+    the indices of the cylinders on it, in order of angle. Angles within
+    ``tol`` of an arm's first angle, also across 0 = 2π, are one arm."""
+    angles = np.mod(np.asarray(angles, dtype=float), 2 * np.pi)
+    arms: list[tuple[float, list[int]]] = []
+    for i in np.argsort(angles, kind="stable"):
+        a = float(angles[i])
+        if arms and a - arms[-1][0] <= tol:
+            arms[-1][1].append(int(i))
+        else:
+            arms.append((a, [int(i)]))
+    if len(arms) > 1 and arms[0][0] + 2 * np.pi - arms[-1][0] <= tol:
+        arms[0][1].extend(arms.pop()[1])
+    return arms
+
+
 def star_is_regular(angles: np.ndarray, tol: float = STAR_TOL) -> bool:
     """True if the arms {angles} are equally spaced round the circle (at least
     two distinct arms) with equal multiplicity."""
-    angles = np.sort(np.mod(angles, 2 * np.pi))
-    if len(angles) < 2:
-        return False
-    # Cluster coincident arms, including across 0 = 2π.
-    arms, counts = [angles[0]], [1]
-    for a in angles[1:]:
-        if a - arms[-1] <= tol:
-            counts[-1] += 1
-        else:
-            arms.append(a)
-            counts.append(1)
-    if len(arms) > 1 and arms[0] + 2 * np.pi - arms[-1] <= tol:
-        counts[0] += counts.pop()
-        arms.pop()
+    arms = star_arms(angles, tol)
     m = len(arms)
-    if m < 2 or len(set(counts)) != 1:
+    if m < 2 or len({len(members) for _, members in arms}) != 1:
         return False
-    gaps = np.diff(np.append(arms, arms[0] + 2 * np.pi))
+    first = np.array([a for a, _ in arms])
+    gaps = np.diff(np.append(first, first[0] + 2 * np.pi))
     return bool(np.all(np.abs(gaps - 2 * np.pi / m) <= m * tol))
 
 
@@ -314,8 +317,7 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
 
     angles, regular, resultant, banks, bank_regular, bank_resultant = _stars(scene, kmax)
     cyl = scene.cylinders
-    fire = firing([c.throw for c in cyl], [c.bank for c in cyl], [c.crank_radius for c in cyl],
-                  [c.rod_length for c in cyl], [c.offset for c in cyl], scene.cycle, scene.firing_order)
+    fire = cylinder_firing(cyl, scene.cycle, scene.firing_order)
 
     lo = lead + ("order",)
     data = {

@@ -144,6 +144,12 @@ def firing(throw, bank, crank_radius, rod_length, offset, cycle: int, order: tup
     return _from_sequence(tdc, min(candidates), revolutions, given=False)
 
 
+def cylinder_firing(cylinders, cycle: int, order: tuple[int, ...] | None = None) -> Firing:
+    """:func:`firing` of a sequence of :class:`harmbal.scene.Cylinder`."""
+    return firing([c.throw for c in cylinders], [c.bank for c in cylinders], [c.crank_radius for c in cylinders],
+                  [c.rod_length for c in cylinders], [c.offset for c in cylinders], cycle, order)
+
+
 def _sorted(angles: np.ndarray) -> tuple[int, ...]:
     """Cylinder indices by angle (ties by index), rotated to start at 0."""
     sequence = sorted(range(len(angles)), key=lambda i: (round(float(angles[i]) / (10 * ANGLE_TOL)), i))

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .crank_stars import star_arms
+
 if TYPE_CHECKING:
     import xarray as xr
     from matplotlib.axes import Axes
@@ -57,9 +59,6 @@ FIGURE_FORMATS = ("svg", "png")
 #: ``DEFAULT_MAX_ORDER``, at most ``DEFAULT_MAX_ROWS`` of them.
 DEFAULT_MAX_ORDER = 8
 DEFAULT_MAX_ROWS = 6
-
-#: Angles closer than this [rad] are one arm of a crank star.
-_ARM_TOL = 1e-9
 
 #: Chains with more arrows than this are drawn without cylinder labels.
 _MAX_ARROW_LABELS = 16
@@ -163,22 +162,6 @@ def _frame(ax: Axes, centre: tuple[float, float], half: float) -> None:
     ax.autoscale_view()
 
 
-def _star_arms(angles: np.ndarray) -> list[tuple[float, list[int]]]:
-    """Distinct arm angles and the cylinder indices on each, in order of angle
-    (coincident arms within ``_ARM_TOL``, also across 0 = 2π)."""
-    angles = np.mod(np.asarray(angles, dtype=float), 2 * np.pi)
-    arms: list[tuple[float, list[int]]] = []
-    for i in np.argsort(angles, kind="stable"):
-        a = float(angles[i])
-        if arms and a - arms[-1][0] <= _ARM_TOL:
-            arms[-1][1].append(int(i))
-        else:
-            arms.append((a, [int(i)]))
-    if len(arms) > 1 and arms[0][0] + 2 * np.pi - arms[-1][0] <= _ARM_TOL:
-        arms[0][1].extend(arms.pop()[1])
-    return arms
-
-
 def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
     """Draw the crank star of one order.
 
@@ -237,7 +220,7 @@ def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
     ax.text(1.5 * np.sin(np.radians(130)), 1.5 * np.cos(np.radians(130)), "rotation", rotation=-40,
             ha="left", va="top", fontsize=7, color="0.35")
 
-    for angle, members in _star_arms(angles):
+    for angle, members in star_arms(angles):
         direction = np.array([np.sin(angle), np.cos(angle)])
         normal = np.array([direction[1], -direction[0]])
         groups = [[i for i in members if bank_of[i] == j] for j in range(len(banks))]

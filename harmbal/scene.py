@@ -474,7 +474,7 @@ class _Reader:
 
     def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:
         """The firing order as cylinder indices, checked against the geometry."""
-        from .firing import FiringOrderError, firing
+        from .firing import FiringOrderError, cylinder_firing
 
         raw = engine.get("firing_order", _MISSING)
         if raw is _MISSING:
@@ -492,8 +492,7 @@ class _Reader:
         if self.problems:  # the geometry may be invalid; check the order once it is not
             return order
         try:
-            firing([c.throw for c in cylinders], [c.bank for c in cylinders], [c.crank_radius for c in cylinders],
-                   [c.rod_length for c in cylinders], [c.offset for c in cylinders], cycle, order)
+            cylinder_firing(cylinders, cycle, order)
         except FiringOrderError as exc:
             self.fail(key, raw, f"not possible with these throws and banks: {exc}")
             return None

@@ -52,6 +52,35 @@ def _parser() -> argparse.ArgumentParser:
                       help="also compare with the time-domain model; exit 1 if they disagree")
     star.set_defaults(handler=_stars)
 
+    design = commands.add_parser(
+        "design", help="design balancer elements order by order and write them into a new scene",
+        description="Solve the scene's [design] table: per order, the unbalances (size and angle) of the candidate "
+                    "elements that cancel the chosen free force and moment phasors. Prints the design and its "
+                    "verification by the exact model, and writes OUT as a scene with the elements and a [verify] "
+                    "table. If a target cannot be cancelled it says why and writes nothing (exit 1) unless "
+                    "--partial is given.")
+    design.add_argument("scene", type=Path, help="scene file (TOML) with a [design] table")
+    design.add_argument("-o", "--output", type=Path, required=True, help="scene file to write (TOML)")
+    design.add_argument("--name", help="engine.name of the output scene (default: the input's)")
+    design.add_argument("--partial", action="store_true",
+                        help="write the least-squares design even if some targets cannot be cancelled")
+    design.set_defaults(handler=_design)
+
+    check = commands.add_parser(
+        "verify", help="verify balancer elements against the exact model",
+        description="Simulate the scene with and without its balancer elements by the exact time-domain model, "
+                    "and set the residual of every targeted order and component next to the predicted one "
+                    "([verify] table written by 'harmbal design', or --orders). Prints pass/fail with the "
+                    "tolerance, the peaks over the revolution per axis and the share removed. Exit 1 on failure.")
+    check.add_argument("scene", type=Path, help="scene file (TOML)")
+    check.add_argument("--orders", type=_order_list, metavar="K[,K...]",
+                       help="orders to check (default: the [verify] table's); without predictions they must vanish")
+    check.add_argument("--cancel", type=_cancel_list, metavar="C[,C...]",
+                       help="components that must vanish: force, moment, roll (default force,moment)")
+    check.add_argument("--tolerance", type=_share, metavar="SHARE",
+                       help="share of each value without balancers that may remain, e.g. 0.01 (default 0)")
+    check.set_defaults(handler=_verify)
+
     show = commands.add_parser(
         "show", help="print the order table stored in an archive",
         description="Print the free forces and moments per order from a harmbal netCDF archive.")
@@ -83,6 +112,95 @@ def _order_list(text: str) -> list[int]:
     if any(k < 1 for k in orders):
         raise argparse.ArgumentTypeError(f"orders must be positive: {text!r}")
     return orders
+
+
+def _cancel_list(text: str) -> tuple[str, ...]:
+    from .design_spec import CANCEL
+
+    names = tuple(text.split(","))
+    if not names or any(n not in CANCEL for n in names):
+        raise argparse.ArgumentTypeError(f"not a list of {', '.join(CANCEL)}: {text!r}")
+    return tuple(n for n in CANCEL if n in names)
+
+
+def _share(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0 <= value < 1:
+        raise argparse.ArgumentTypeError(f"must lie in [0, 1): {text!r}")
+    return value
+
+
+def _design(args) -> None:
+    from .balance_design import DesignError, design
+    from .balance_verify import verify
+    from .tables import design_table, verify_table
+
+    if args.output.suffix.lower() != ".toml":
+        raise _BadInput(f"{args.output}: the design is written as a scene file (.toml)")
+    if not args.output.parent.is_dir():
+        raise _BadInput(f"{args.output}: output directory {args.output.parent} does not exist")
+    if args.output.resolve() == args.scene.resolve():
+        raise _BadInput(f"{args.output}: would overwrite the input scene; choose another file")
+    scene = _load(args.scene)
+    try:
+        result = design(scene, name=args.name)
+    except DesignError as exc:
+        raise _BadInput(str(exc)) from None
+    print(design_table(result))
+    check = verify(result.scene)
+    print()
+    print(verify_table(check))
+    if not result.feasible and not args.partial:
+        raise _Disagreement("some targets cannot be cancelled (see above); nothing written (--partial writes "
+                            "the least-squares design)")
+    if check.attrs["passed"] != "yes":
+        raise _Disagreement("the exact model does not confirm the design; nothing written")
+    _write_text(args.output, result.text)
+    print(f"\nwrote {args.output}")
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write atomically: a reader never sees half a file."""
+    import os
+    import tempfile
+
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        os.unlink(temporary)
+        raise
+
+
+def _verify(args) -> None:
+    import dataclasses
+
+    from .balance_verify import verify
+    from .design_spec import VerifyRequest
+    from .tables import verify_table
+
+    scene = _load(args.scene)
+    request = scene.verify
+    if args.orders:
+        if max(args.orders) > scene.sampling.max_order:
+            raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
+        request = VerifyRequest(tuple(sorted(set(args.orders))))
+    if request is None:
+        raise _BadInput(f"{args.scene}: nothing to verify: no [verify] table (harmbal design writes one); "
+                        "give --orders")
+    if args.cancel:
+        request = dataclasses.replace(request, cancel=args.cancel)
+    if args.tolerance is not None:
+        request = dataclasses.replace(request, tolerance=args.tolerance)
+    check = verify(scene, request)
+    print(verify_table(check))
+    if check.attrs["passed"] != "yes":
+        raise _Disagreement("the exact model does not confirm the balancers within the tolerance")
 
 
 def _load(path: Path):

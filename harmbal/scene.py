@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from .balancers import PRODUCT_CONVENTIONS, Shaft, ShaftUnbalance, couple_from_moment, couple_from_products
+from .design_spec import CANCEL, COMPONENTS, OBJECTIVES, PEAK_SIGNALS, Candidate, DesignRequest, VerifyRequest
 from .units import QuantityError, to_si
 
 EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
@@ -175,6 +176,10 @@ class Scene:
     description: str = ""
     #: Firing order as cylinder indices (0-based), if the scene gives one.
     firing_order: tuple[int, ...] | None = None
+    #: What ``harmbal design`` should design ([design]) and what
+    #: ``harmbal verify`` checks ([verify]), if the scene says.
+    design: DesignRequest | None = None
+    verify: VerifyRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
 
@@ -221,12 +226,20 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
             text = repr(data)
     else:
         path = Path(path_or_mapping)
-        source = str(path)
-        text = path.read_text(encoding="utf-8")
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError([Problem(source, "(file)", _MISSING, f"TOML syntax error: {exc}")]) from None
+        return scene_from_text(path.read_text(encoding="utf-8"), str(path))
+    return _read(data, text, source)
+
+
+def scene_from_text(text: str, source: str = "<text>") -> Scene:
+    """Read and validate a scene from TOML text, naming ``source`` in errors."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError([Problem(source, "(file)", _MISSING, f"TOML syntax error: {exc}")]) from None
+    return _read(data, text, source)
+
+
+def _read(data: Mapping, text: str, source: str) -> Scene:
     reader = _Reader(source)
     scene = reader.scene(data, text)
     if reader.problems:
@@ -236,7 +249,8 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
 
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
-    "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "balance_shaft", "lanchester_pair",
+    "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
+    "lanchester_pair", "design", "verify",
 }
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
@@ -250,7 +264,19 @@ _UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle"}
 _PRODUCT_KEYS = {"xy", "xz", "convention"}
 _SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia"}
 _CRANKSHAFT_KEYS = {"mass", "cg_offset", "axial_position", "products_of_inertia"}
-_LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "axial_position", "heights", "lateral"}
+_LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "phase", "axial_position", "heights",
+                    "lateral"}
+_COUNTERWEIGHT_KEYS = {"label", "unbalance", "mass", "radius", "angle", "axial_position"}
+_DESIGN_KEYS = {"orders", "cancel", "objective", "peak", "counterweights", "balance_shaft", "moment_shaft",
+                "lanchester_pair"}
+_CANDIDATE_KEYS = {
+    "counterweights": {"label", "planes", "balance_factor", "max_unbalance"},
+    "balance_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
+    "moment_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
+    "lanchester_pair": {"label", "order", "axial_position", "heights", "lateral", "max_unbalance"},
+}
+_VERIFY_KEYS = {"orders", "cancel", "speed", "tolerance", "predicted"}
+_PREDICTED_KEYS = {"order"} | {name for name, _ in COMPONENTS}
 
 
 class _Reader:
@@ -376,12 +402,151 @@ class _Reader:
                                            "axial_position"))
         firing_order = self.firing_order(engine, cylinders, cycle)
         sense = 1 if rotation == "counterclockwise" else -1
-        shafts = (self.crankshaft(data, sense) + self.balance_shafts(data.get("balance_shaft", []), sense)
+        shafts = (self.crankshaft(data, sense) + self.counterweights(data.get("counterweight", []))
+                  + self.balance_shafts(data.get("balance_shaft", []), sense)
                   + self.lanchester_pairs(data.get("lanchester_pair", [])))
+        labels = [s.label for s in shafts]
+        for label in sorted({x for x in labels if labels.count(x) > 1}):
+            self.fail("balancer elements", label, "two balancer elements have this label; labels must be unique")
+        design = self.design(data["design"], sampling.max_order) if "design" in data else None
+        verify = self.verify(data["verify"], sampling.max_order) if "verify" in data else None
         return Scene(name=name, description=description, cycle=cycle, rotation=rotation, speeds=speeds,
                      reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts,
-                     model=model, sampling=sampling, firing_order=firing_order, source=self.source,
-                     source_text=text)
+                     model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
+                     source=self.source, source_text=text)
+
+    # -- design and verification requests -----------------------------------
+
+    def orders(self, table: Mapping, path: str, max_order: int) -> tuple[int, ...]:
+        raw = table.get("orders", _MISSING)
+        where = _join(path, "orders")
+        if raw is _MISSING:
+            self.fail(where, raw, "missing: the orders to balance, e.g. [1, 2]")
+            return ()
+        if (not isinstance(raw, list) or not raw
+                or any(isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= max_order for k in raw)):
+            self.fail(where, raw, f"must be a non-empty list of orders from 1 to sampling.max_order = {max_order}")
+            return ()
+        if len(set(raw)) != len(raw):
+            self.fail(where, raw, "an order is listed twice")
+        return tuple(sorted(set(raw)))
+
+    def names(self, table: Mapping, key: str, path: str, options: tuple[str, ...], default: tuple) -> tuple[str, ...]:
+        raw = table.get(key, list(default))
+        if not isinstance(raw, list) or not raw or any(v not in options for v in raw):
+            self.fail(_join(path, key), raw, f"must be a non-empty list of {', '.join(map(repr, options))}")
+            return default
+        return tuple(v for v in options if v in raw)
+
+    def lengths(self, table: Mapping, key: str, path: str, count: int | None = None) -> tuple[float, ...]:
+        """A list of lengths (any number ≥ 1, or exactly ``count``), distinct."""
+        raw = table.get(key, _MISSING)
+        where = _join(path, key)
+        if not isinstance(raw, list) or not raw or (count is not None and len(raw) != count):
+            self.fail(where, raw, f"must be a list of {count or 'one or more'} axial positions (lengths)")
+            return ()
+        values = tuple(self.quantity({f"{key}[{i + 1}]": v}, f"{key}[{i + 1}]", path, "length")
+                       for i, v in enumerate(raw))
+        if len(set(values)) != len(values):
+            self.fail(where, raw, "planes must be at distinct axial positions")
+        return values
+
+    def ratio(self, entry: Mapping, key: str, path: str) -> int:
+        ratio = entry.get(key, _MISSING)
+        if ratio is _MISSING:
+            self.fail(_join(path, key), ratio, "missing: the speed ratio n (negative turns against the crank)")
+        elif isinstance(ratio, bool) or not isinstance(ratio, int) or ratio == 0:
+            self.fail(_join(path, key), ratio, "must be a non-zero integer (negative turns against the crank)")
+        else:
+            return ratio
+        return 1
+
+    def candidate(self, kind: str, path: str, entry: Mapping) -> Candidate:
+        self.unknown(entry, path, _CANDIDATE_KEYS[kind])
+        number = path.rsplit("[", 1)[-1].rstrip("]")
+        label = self.string(entry, "label", path, "counterweights" if kind == "counterweights"
+                            else f"{kind.replace('_', ' ')} {number}")
+        bound = (self.quantity(entry, "max_unbalance", path, "unbalance", positive=True)
+                 if "max_unbalance" in entry else None)
+        if kind == "counterweights":
+            factor = None
+            if "balance_factor" in entry:
+                factor = self.quantity(entry, "balance_factor", path, "dimensionless")
+                if math.isfinite(factor) and not 0 <= factor <= 1:
+                    self.fail(_join(path, "balance_factor"), entry["balance_factor"],
+                              "must lie in [0, 1] (0 = rotating masses only, 1 = all of the first-order "
+                              "reciprocating force's co-rotating share doubled)")
+            return Candidate(kind, label, 1, self.lengths(entry, "planes", path), balance_factor=factor,
+                             max_unbalance=bound)
+        if kind == "lanchester_pair":
+            order = 1
+            if "order" in entry:
+                order = self.integer(entry, "order", path, 1, 1)
+            else:
+                self.fail(_join(path, "order"), _MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
+            x = self.quantity(entry, "axial_position", path, "length", default=0.0)
+            heights = self.quantity_list(entry, "heights", path, "length", 2, [0, 0])
+            lateral = self.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
+            return Candidate(kind, label, order, (x,), heights=heights, lateral=lateral, max_unbalance=bound)
+        y, z = self.position(entry, "axis_position", path)
+        planes = self.lengths(entry, "planes", path, 2 if kind == "moment_shaft" else None)
+        return Candidate(kind, label, self.ratio(entry, "ratio", path), planes, y=y, z=z, max_unbalance=bound)
+
+    def design(self, raw: Any, max_order: int) -> DesignRequest | None:
+        if not isinstance(raw, Mapping):
+            self.fail("design", raw, "must be a table")
+            return None
+        self.unknown(raw, "design", _DESIGN_KEYS)
+        orders = self.orders(raw, "design", max_order)
+        cancel = self.names(raw, "cancel", "design", CANCEL, ("force", "moment"))
+        objective = self.choice(raw, "objective", "design", OBJECTIVES, "least_squares")
+        peak = self.names(raw, "peak", "design", PEAK_SIGNALS, ("moment_y", "moment_z"))
+        if "peak" in raw and objective != "peak":
+            self.fail("design.peak", raw["peak"], 'only used with objective = "peak"')
+        candidates = [self.candidate(kind, path, entry) for kind in _CANDIDATE_KEYS
+                      for path, entry in self.array(raw.get(kind, []), f"design.{kind}")]
+        if not candidates:
+            self.fail("design", sorted(raw), "give at least one candidate element: "
+                      + ", ".join(f"[[design.{k}]]" for k in _CANDIDATE_KEYS))
+        labels = [c.label for c in candidates]
+        for label in sorted({x for x in labels if labels.count(x) > 1}):
+            self.fail("design", label, "two candidate elements have this label; labels must be unique")
+        return DesignRequest(orders, tuple(candidates), cancel, objective, peak)
+
+    def verify(self, raw: Any, max_order: int) -> VerifyRequest | None:
+        if not isinstance(raw, Mapping):
+            self.fail("verify", raw, "must be a table")
+            return None
+        self.unknown(raw, "verify", _VERIFY_KEYS)
+        orders = self.orders(raw, "verify", max_order)
+        cancel = self.names(raw, "cancel", "verify", CANCEL, ("force", "moment"))
+        speed = self.quantity(raw, "speed", "verify", "speed", positive=True) if "speed" in raw else None
+        tolerance = self.quantity(raw, "tolerance", "verify", "dimensionless", default=0.0, nonnegative=True)
+        predicted = []
+        if "predicted" in raw and speed is None:
+            self.fail("verify.predicted", _MISSING, "needs verify.speed, the speed the predictions are given at")
+        for path, entry in self.array(raw.get("predicted", []), "verify.predicted"):
+            self.unknown(entry, path, _PREDICTED_KEYS)
+            order = self.integer(entry, "order", path, 0, 1)
+            if order not in orders:
+                self.fail(_join(path, "order"), entry.get("order"), "must be one of verify.orders")
+            for name, group in COMPONENTS:
+                if name in entry:
+                    dimension = "N" if group == "force" else "N m"
+                    amplitude, phase = self.phasor(entry, name, path, dimension)
+                    predicted.append((order, name, amplitude * complex(math.cos(phase), math.sin(phase))))
+        return VerifyRequest(orders, cancel, speed, tuple(predicted), tolerance)
+
+    def phasor(self, entry: Mapping, key: str, path: str, units: str) -> tuple[float, float]:
+        """A phasor written as [amplitude, phase], e.g. ["12.5 N", "30 deg"]."""
+        raw = entry[key]
+        if not isinstance(raw, list) or len(raw) != 2:
+            self.fail(_join(path, key), raw, f'must be [amplitude, phase], e.g. ["1.5 {units}", "30 deg"]')
+            return math.nan, 0.0
+        dimension = "force" if units == "N" else "moment"
+        amplitude = self.quantity({key: raw[0]}, key, path, dimension, nonnegative=True)
+        phase = self.quantity({key: raw[1]}, key, path, "angle")
+        return amplitude, phase
 
     # -- balancer elements -------------------------------------------------
 
@@ -439,6 +604,19 @@ class _Reader:
             shafts.append(Shaft(str(label), ratio, y, z, unbalances, self.couple(entry, path, sense)))
         return tuple(shafts)
 
+    def counterweights(self, raw: Any) -> tuple[Shaft, ...]:
+        """Crank counterweights: static unbalances turning with the crank on
+        its axis, angles relative to throw 1."""
+        shafts = []
+        for path, entry in self.array(raw, "counterweight"):
+            self.unknown(entry, path, _COUNTERWEIGHT_KEYS)
+            label = self.string(entry, "label", path, f"counterweight {len(shafts) + 1}")
+            u = self.unbalance_size(entry, path)
+            angle = self.quantity(entry, "angle", path, "angle", default=0.0)
+            x = self.quantity(entry, "axial_position", path, "length", default=0.0)
+            shafts.append(Shaft(label, 1, 0.0, 0.0, (ShaftUnbalance(u, angle, x),)))
+        return tuple(shafts)
+
     def crankshaft(self, data: Mapping, sense: int) -> tuple[Shaft, ...]:
         """The crankshaft's CAD mass data as a shaft turning with the crank."""
         if "crankshaft" not in data:
@@ -465,11 +643,14 @@ class _Reader:
                 order = 1
             u = self.unbalance_size(entry, path)
             angle = self.quantity(entry, "angle", path, "angle", default=0.0)
+            phase = self.quantity(entry, "phase", path, "angle", default=0.0)
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
             heights = self.quantity_list(entry, "heights", path, "length", 2, [0, 0])
             lateral = self.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
-            for ratio, y, z, side in ((order, lateral[0], heights[0], "+"), (-order, lateral[1], heights[1], "−")):
-                shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z, (ShaftUnbalance(u, angle, x),)))
+            for ratio, y, z, side, sign in ((order, lateral[0], heights[0], "+", 1), (-order, lateral[1], heights[1],
+                                                                                       "−", -1)):
+                shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z,
+                                    (ShaftUnbalance(u, angle + sign * phase, x),)))
         return tuple(shafts)
 
     def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:

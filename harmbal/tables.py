@@ -139,3 +139,84 @@ def verification_table(check) -> str:
     lines.append(f"tolerance {float(np.max(check['force_tolerance'])):.2g} N, "
                  f"{float(np.max(check['moment_tolerance'])):.2g} N m ({check.attrs['tolerance']})")
     return "\n".join(lines)
+
+
+def _phasor(value: complex, units: str) -> str:
+    """Amplitude and phase of a phasor, or 0 without a phase."""
+    if value == 0:
+        return f"{'0':>11} {units:<3} {'':>7}"
+    phase = round(float(np.degrees(np.angle(value))), 1) + 0.0
+    return f"{abs(value):>11.5g} {units:<3} {phase:>6.1f}°"
+
+
+def _component_label(order: int, component: str) -> str:
+    return f"{order:>5}  {component.replace('_', ' '):<15}"
+
+
+def design_table(result) -> str:
+    """The designed elements, and per targeted order and component the value
+    before, the predicted residual and whether it is cancelled, from
+    :func:`harmbal.design`."""
+    ds = result.dataset
+    lines = [f"{ds.attrs['engine']}: design of orders {', '.join(map(str, ds['order'].values))} "
+             f"(cancel {ds.attrs['cancel']}; objective {ds.attrs['objective']}) at {float(ds['rpm']):.6g} rpm",
+             "", "Elements (unbalance = mass × radius; angle at θ = 0 from +z in the direction of rotation):"]
+    for label, u, angle in zip(ds["element"].values, ds["unbalance"].values, ds["unbalance_angle"].values):
+        lines.append(f"  {label:<32} {u * 1e3:>12.6g} kg mm  at {np.degrees(angle) % 360:>7.2f}°")
+    lines += ["", f"{'order':>5}  {'component':<15}{'without new elements':>24}{'predicted residual':>24}  result"]
+    for i, k in enumerate(ds["order"].values):
+        for j, name in enumerate(ds["component"].values):
+            if not ds["targeted"].values[i, j]:
+                continue
+            units = str(ds["component_units"].values[j])
+            state = "cancelled" if ds["cancelled"].values[i, j] else "LEFT"
+            lines.append(_component_label(int(k), str(name)) + _phasor(complex(ds["before"].values[i, j]), units)
+                         + _phasor(complex(ds["predicted"].values[i, j]), units) + f"  {state}")
+    if result.messages:
+        lines += ["", *(f"! {m}" for m in result.messages)]
+    return "\n".join(lines)
+
+
+def verify_table(check) -> str:
+    """Residuals of the exact model next to the predicted ones, pass or fail
+    per targeted order and component, and the peaks over the revolution per
+    axis with the share removed, from :func:`harmbal.verify`."""
+    attrs = check.attrs
+    lines = [f"{attrs['engine']}: balancers verified against the exact time-domain model "
+             f"({attrs['samples_per_rev']} samples/rev): {'PASSED' if attrs['passed'] == 'yes' else 'FAILED'}",
+             f"Tolerance: {attrs['tolerance_rule']}."]
+    speeds = np.atleast_1d(check["rpm"].values)
+    for s, rpm in enumerate(speeds):
+        sel = check.isel(speed=s) if "speed" in check.dims else check
+        lines += ["", f"Speed {rpm:.6g} rpm",
+                  f"{'order':>5}  {'component':<15}{'before':>23}{'predicted':>23}{'exact residual':>23}"
+                  f"{'|Δ|':>11}{'tolerance':>11}  result"]
+        for k in sel["order"].values:
+            for name in sel["component"].values:
+                if not bool(sel["targeted"].sel(component=name)):
+                    continue
+                row = sel.sel(order=k, component=name)
+                units = str(row["component_units"].values)
+                lines.append(_component_label(int(k), str(name)) + _phasor(complex(row["before"]), units)
+                             + _phasor(complex(row["predicted"]), units) + _phasor(complex(row["exact"]), units)
+                             + f"{float(row['difference']):>11.2g}{float(row['tolerance']):>11.2g}  "
+                             + ("pass" if bool(row["passed"]) else "FAIL"))
+        lines += ["", f"{'':>5}  {'per axis':<15}{'before':>14}{'after':>14}{'removed':>10}"]
+        for name, units in (("force", "N"), ("moment", "N m")):
+            for axis in sel["axis"].values:
+                was, now = float(sel[f"peak_{name}_before"].sel(axis=axis)), float(sel[f"peak_{name}_after"].sel(axis=axis))
+                if max(was, now) <= 1e-10 * float(sel[f"{name}_scale"]):
+                    continue
+                share = round(float(sel[f"peak_{name}_removed"].sel(axis=axis)), 1) + 0.0
+                lines.append(f"{'peak':>5}  {name + ' ' + axis + ' [' + units + ']':<15}{was:>14.5g}{now:>14.5g}"
+                             f"{share:>9.1f}%")
+            for k in sel["order"].values:
+                for axis in sel["axis"].values:
+                    was, now = float(sel[f"{name}_before"].sel(order=k, axis=axis)), float(
+                        sel[f"{name}_after"].sel(order=k, axis=axis))
+                    if max(was, now) <= 1e-10 * float(sel[f"{name}_scale"]):
+                        continue
+                    share = round(float(sel[f"{name}_removed"].sel(order=k, axis=axis)), 1) + 0.0
+                    lines.append(f"{k:>5}  {name + ' ' + axis + ' [' + units + ']':<15}{was:>14.5g}{now:>14.5g}"
+                                 f"{share:>9.1f}%")
+    return "\n".join(lines)

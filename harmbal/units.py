@@ -20,6 +20,8 @@ SI_UNITS: dict[str, str] = {
     "speed": "rad/s",
     "inertia": "kg m^2",
     "unbalance": "kg m",
+    "force": "N",
+    "moment": "N m",
     "dimensionless": "",
 }
 

@@ -1,0 +1,579 @@
+"""Design of balancers order by order, with their phasing.
+
+Every balancer element is a static unbalance P = U·e^{iα} (mass × radius and
+its angle at θ = 0) turning at n × crank speed; its loads on the block are
+pure order-|n| phasors, linear in (Re P, Im P). So, per order, cancelling the
+engine's free force and moment phasors is a small real linear problem
+A·z = −b: the columns of A are the unit responses of the unknowns (computed
+by the same code that simulates the elements, :mod:`harmbal.balancers`), b
+the engine's phasors from :func:`harmbal.crank_stars.order_phasors`. It is
+solved by least squares, with force rows scaled by the engine's force scale
+and moment rows by its moment scale; lstsq's minimum-norm solution picks the
+smallest unbalances when several designs cancel the same. What is left is
+reported component by component, in words where it cannot be cancelled.
+
+Two refinements:
+
+* crank counterweights with a *balance factor* f are not solved but sized by
+  the classic rule: they cancel the rotating masses' first-order force and
+  moment plus 2f times the co-rotating half of the reciprocating masses'
+  (f = 0.5 cancels all of the co-rotating first order), split over their
+  planes for static and couple balance;
+* the *peak* objective keeps the cancelled components as equality
+  constraints and spends the remaining freedom on the smallest peak over the
+  revolution of chosen signals (e.g. the moments about y and z): the signals
+  are linear in the unknowns, so this is a linear programme
+  (scipy.optimize.linprog) over the sampled revolution, exact at the samples.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .balancers import Shaft, ShaftUnbalance, shaft_loads, shaft_phasors
+from .crank_stars import order_phasors
+from .design_spec import COMPONENTS, Candidate, DesignRequest, Placement
+from .orders import BALANCED_RTOL, rotating_split
+from .scene import Scene, scene_from_text
+from .timedomain import moment_about, unit_speed_loads
+
+#: Samples per revolution of the peak objective's linear programme: the
+#: sampled peak of an order-k signal is within (πk/N)²/2 of the true peak.
+PEAK_SAMPLES = 2048
+
+#: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the
+#: linear programme uses (it gives away at most 1 − cos(π/64) = 0.12 %).
+BOUND_SIDES = 64
+
+
+class DesignError(ValueError):
+    """A design that cannot be set up (no [design] table, a target order the
+    scene does not resolve)."""
+
+
+@dataclass(frozen=True)
+class Design:
+    """The result of :func:`design`.
+
+    ``scene`` is the scene with the designed elements, loaded from ``text``,
+    the scene file harmbal writes (it has a ``[verify]`` table with the
+    targets and the predicted residuals, and no ``[design]`` table).
+    ``elements`` are the designed balancer elements; ``dataset`` holds, per
+    targeted order and component, the value without the new elements, the
+    predicted residual and whether it is cancelled; ``messages`` explain in
+    words what could not be cancelled.
+    """
+
+    scene: Scene
+    text: str
+    elements: tuple[Shaft, ...]
+    dataset: object
+    messages: tuple[str, ...]
+
+    @property
+    def feasible(self) -> bool:
+        """True if every targeted component is cancelled."""
+        return not self.messages
+
+
+def _element_phasors(placements: tuple[Placement, ...], value: complex, kmax: int, sense: int,
+                     ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-axis order phasors (axis, order) of force and moment about ``ref``
+    at unit speed when the unknown is ``value``."""
+    shafts = _shafts("", placements, value)
+    force, moment = shaft_phasors(shafts, kmax, sense)
+    return force, moment_about(ref, force, moment)
+
+
+def _element_loads(placements, value: complex, theta: np.ndarray, sense: int, ref: np.ndarray):
+    force, moment = shaft_loads(_shafts("", placements, value), theta, sense)
+    return force, moment_about(ref, force, moment)
+
+
+def _shafts(label: str, placements: tuple[Placement, ...], value: complex) -> tuple[Shaft, ...]:
+    return tuple(Shaft(label, p.ratio, p.y, p.z, (ShaftUnbalance(abs(p.coefficient * value),
+                                                                  float(np.angle(p.coefficient * value)), p.x),))
+                 for p in placements)
+
+
+def _components(force: np.ndarray, moment: np.ndarray, sense: int) -> dict[str, np.ndarray]:
+    """The verified components per order from per-axis phasors (..., axis, order)."""
+    f_co, f_counter = rotating_split(force[..., 2, :], -sense * force[..., 1, :])
+    m_co, m_counter = rotating_split(moment[..., 2, :], -sense * moment[..., 1, :])
+    return {"force_co": f_co, "force_counter": f_counter, "moment_co": m_co, "moment_counter": m_counter,
+            "roll": moment[..., 0, :]}
+
+
+def _targets(request: DesignRequest) -> list[tuple[int, str]]:
+    return [(k, name) for k in request.orders for name, group in COMPONENTS if group in request.cancel]
+
+
+def _rows(components: dict[str, np.ndarray], targets: list[tuple[int, str]], weights: dict[str, float]) -> np.ndarray:
+    """Real rows (re, im per target), weighted."""
+    values = np.array([components[name][..., k] * weights[name] for k, name in targets])
+    return np.concatenate([values.real, values.imag])
+
+
+def _restricted(scene: Scene, effects: set[str]) -> Scene:
+    return dataclasses.replace(scene, model=dataclasses.replace(scene.model, effects=frozenset(
+        scene.model.effects & effects)))
+
+
+def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: np.ndarray,
+                           weights: dict[str, float]) -> np.ndarray:
+    """Unknowns of counterweights sized by the balance-factor rule: cancel the
+    rotating masses' first-order co-rotating force and moment plus 2f × the
+    reciprocating masses' (static balance alone with one plane)."""
+    sense = scene.sense
+    rot = order_phasors(_restricted(scene, {"rotating"}))
+    rec = order_phasors(_restricted(scene, {"reciprocating"}))
+    f = candidate.balance_factor
+    target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, sense)
+    # The co-rotating half only: the rule's 2f·co of the reciprocating masses.
+    names = ["force_co"] + (["moment_co"] if len(candidate.planes) > 1 else [])
+    rows = [(1, name) for name in names]
+    b = _rows(target, rows, weights)
+    a = _matrix(candidate.unknowns(), rows, kmax, sense, ref, weights)
+    return np.linalg.lstsq(a, -b, rcond=None)[0]
+
+
+def _matrix(unknowns, targets, kmax, sense, ref, weights) -> np.ndarray:
+    """Columns: the weighted rows of each real unknown (Re P, Im P)."""
+    columns = []
+    for placements in unknowns:
+        for value in (1.0, 1j):
+            force, moment = _element_phasors(placements, value, kmax, sense, ref)
+            columns.append(_rows(_components(force, moment, sense), targets, weights))
+    return np.array(columns).T.reshape(2 * len(targets), len(columns))
+
+
+def _remedy(order: int, name: str) -> str:
+    if name == "roll":
+        return f"shafts at ±{order}× set off the crank axis, e.g. a ±{order}× Lanchester pair at different heights"
+    if name.endswith("_co"):
+        return "crank counterweights or a +1× shaft" if order == 1 else f"a +{order}× shaft"
+    return f"a −{order}× shaft"
+
+
+def _describe(order: int, name: str) -> str:
+    if name == "roll":
+        return f"order {order} roll moment"
+    what, rotation = name.split("_")
+    return f"order {order} {rotation}-rotating {what}"
+
+
+def design(scene: Scene, request: DesignRequest | None = None, *, name: str | None = None,
+           description: str | None = None) -> Design:
+    """Design balancer elements order by order and write them into a scene.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`harmbal.load_scene`; its existing balancer elements are
+        part of the engine being balanced.
+    request : DesignRequest, optional
+        What to design; default the scene's ``[design]`` table.
+    name, description : str, optional
+        ``engine.name`` and ``engine.description`` of the output scene;
+        default the input's.
+
+    Returns
+    -------
+    Design
+        The designed elements, the output scene (text and loaded), the
+        predicted residuals and messages on what cannot be cancelled.
+
+    Raises
+    ------
+    DesignError
+        If there is no request or it targets orders the scene does not keep.
+    """
+    import xarray as xr
+
+    request = request or scene.design
+    if request is None:
+        raise DesignError(f"{scene.source}: no [design] table: say which orders to balance with which elements "
+                          "(docs/design.md)")
+    kmax = scene.sampling.max_order
+    if max(request.orders) > kmax or max((c.ratio for c in request.candidates), default=0) > kmax:
+        raise DesignError(f"{scene.source}: design.orders: orders and shaft ratios must not exceed "
+                          f"sampling.max_order = {kmax}")
+    sense = scene.sense
+    ref = np.asarray(scene.reference_point, dtype=float)
+    engine = order_phasors(scene)
+    force_scale = float(engine.peak_force.sum() + engine.crankshaft_peak_force)
+    moment_scale = float(engine.peak_moment.sum() + engine.crankshaft_peak_moment)
+    scales = {name: force_scale if group == "force" else moment_scale for name, group in COMPONENTS}
+    weights = {name: 1.0 / s if s > 0 else 1.0 for name, s in scales.items()}
+    targets = _targets(request)
+
+    # The engine, with the counterweights that the balance-factor rule sizes.
+    base_force, base_moment = engine.force.copy(), engine.moment.copy()
+    values: dict[str, list[complex]] = {}
+    free = []
+    for c in request.candidates:
+        if c.balance_factor is None:
+            free.append(c)
+            continue
+        z = _factor_counterweights(scene, c, kmax, ref, weights)
+        values[c.label] = list(z[0::2] + 1j * z[1::2])
+        for placements, v in zip(c.unknowns(), values[c.label]):
+            f, m = _element_phasors(placements, v, kmax, sense, ref)
+            base_force += f
+            base_moment += m
+    base = _components(base_force, base_moment, sense)
+    b = _rows(base, targets, weights)
+    unknowns = [u for c in free for u in c.unknowns()]
+    a = _matrix(unknowns, targets, kmax, sense, ref, weights) if unknowns else np.zeros((len(b), 0))
+    z = np.linalg.lstsq(a, -b, rcond=None)[0] if unknowns else np.zeros(0)
+
+    def residual(z):
+        return b + a @ z
+
+    ok = _cancelled(residual(z), targets)
+    if request.objective == "peak" and unknowns:
+        z = _peak_design(scene, request, free, unknowns, z, a, b, ok, ref)
+        ok = _cancelled(residual(z), targets)
+
+    i = 0
+    for c in free:
+        n = len(c.unknowns())
+        values[c.label] = list(z[2 * i:2 * (i + n):2] + 1j * z[2 * i + 1:2 * (i + n):2])
+        i += n
+
+    # Predicted residual phasors at unit speed.
+    force, moment = base_force.copy(), base_moment.copy()
+    for c in free:
+        for placements, v in zip(c.unknowns(), values[c.label]):
+            f, m = _element_phasors(placements, v, kmax, sense, ref)
+            force += f
+            moment += m
+    predicted = _components(force, moment, sense)
+    for (k, component), cancelled in ok.items():
+        if cancelled:  # round-off, not a prediction: no noise phase
+            predicted[component][k] = 0
+    before = {n: np.where(np.abs(v) <= BALANCED_RTOL * scales[n], 0, v)
+              for n, v in _components(engine.force, engine.moment, sense).items()}
+    w2 = scene.speeds[0] ** 2
+    messages = _messages(request, targets, ok, predicted, before, scales, a, w2, scene.speeds[0])
+    messages += _bound_messages(request, values)
+
+    text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
+                       negligible=BALANCED_RTOL * force_scale)
+    designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)"), source=scene.source)
+    labels = {e.label for e in scene.shafts}
+    elements = tuple(e for e in designed.shafts if e.label not in labels)
+
+    target_names = [n for n, _ in COMPONENTS]
+    data = {
+        "before": (("order", "component"), w2 * np.array([[before[n][k] for n in target_names]
+                                                             for k in request.orders]),
+                   {"long_name": "phasor without the designed elements", "units": "N or N m (see component_units)"}),
+        "predicted": (("order", "component"), w2 * np.array([[predicted[n][k] for n in target_names]
+                                                                for k in request.orders]),
+                      {"long_name": "residual phasor the design predicts", "units": "N or N m (see component_units)"}),
+        "targeted": (("order", "component"), np.array([[(k, n) in targets for n in target_names]
+                                                        for k in request.orders])),
+        "cancelled": (("order", "component"), np.array([[ok.get((k, n), False) for n in target_names]
+                                                         for k in request.orders])),
+        "unbalance": ("element", [abs(v) for c in request.candidates for v in values[c.label]],
+                      {"units": "kg m", "long_name": "designed unbalance (mass x radius)"}),
+        "unbalance_angle": ("element", [float(np.angle(v)) for c in request.candidates for v in values[c.label]],
+                            {"units": "rad", "long_name": "direction of the unbalance at theta = 0"}),
+    }
+    coords = {
+        "order": ("order", list(request.orders), {"long_name": "order of crank speed"}),
+        "component": ("component", target_names),
+        "component_units": ("component", ["N" if g == "force" else "N m" for _, g in COMPONENTS]),
+        "element": ("element", [n for c in request.candidates for n in c.names()]),
+        "speed": ((), scene.speeds[0], {"units": "rad/s"}),
+        "rpm": ((), scene.speeds[0] * 30 / math.pi, {"units": "rpm"}),
+    }
+    dataset = xr.Dataset(data, coords, {
+        "title": f"harmbal balancer design: {scene.name}",
+        "engine": scene.name,
+        "objective": request.objective,
+        "cancel": " ".join(request.cancel),
+        "feasible": "no" if messages else "yes",
+        "messages": "\n".join(messages),
+    })
+    return Design(designed, text, elements, dataset, tuple(messages))
+
+
+def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:
+    """Targets whose (weighted) residual is zero up to round-off."""
+    n = len(targets)
+    size = np.hypot(residual[:n], residual[n:])
+    return {t: bool(s <= BALANCED_RTOL) for t, s in zip(targets, size)}
+
+
+def _messages(request, targets, ok, predicted, before, scales, a, w2, omega) -> list[str]:
+    rpm = omega * 30 / math.pi
+    n = len(targets)
+    messages = []
+    for row, (k, name) in enumerate(targets):
+        if ok[(k, name)]:
+            continue
+        units = "N" if name.startswith("force") else "N m"
+        left = abs(predicted[name][k]) * w2
+        was = abs(before[name][k]) * w2
+        acting = np.hypot(a[row], a[row + n]) > BALANCED_RTOL * np.abs(a).max(initial=0.0)
+        if not acting.any():
+            names = ", ".join(c.describe() for c in request.candidates)
+            messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm cannot be cancelled by "
+                            f"{names}; add {_remedy(k, name)}")
+        else:
+            messages.append(f"{_describe(k, name)} is only partly cancelled ({was:.4g} → {left:.4g} {units} at "
+                            f"{rpm:.6g} rpm): the elements acting at order {k} have too few degrees of freedom for "
+                            "all the targets; add a plane or a shaft")
+    return messages
+
+
+def _bound_messages(request: DesignRequest, values) -> list[str]:
+    messages = []
+    for c in request.candidates:
+        if c.max_unbalance is not None and any(abs(v) > c.max_unbalance * (1 + 1e-9) for v in values[c.label]):
+            largest = max(abs(v) for v in values[c.label])
+            messages.append(f"{c.label}: unbalance {largest * 1e3:.5g} kg mm exceeds max_unbalance "
+                            f"{c.max_unbalance * 1e3:.5g} kg mm (the least-squares design ignores bounds; use "
+                            "objective = \"peak\")")
+    return messages
+
+
+def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref) -> np.ndarray:
+    """Minimise the summed peaks of the chosen signals over the sampled
+    revolution with the cancelled targets as equality constraints: a linear
+    programme in (z, t)."""
+    from scipy.optimize import linprog
+
+    sense = scene.sense
+    n = PEAK_SAMPLES
+    theta = 2 * np.pi * np.arange(n) / n
+    unit = unit_speed_loads(scene, n)
+    force = unit.force_cylinder.sum(axis=0) + unit.force_crankshaft
+    moment = (moment_about(ref, unit.force_cylinder, unit.moment_cylinder).sum(axis=0)
+              + moment_about(ref, unit.force_crankshaft, unit.moment_crankshaft))
+    signals = {"force": force, "moment": moment}
+    responses = []
+    for placements in unknowns:
+        for value in (1.0, 1j):
+            f, m = _element_loads(placements, value, theta, sense, ref)
+            responses.append({"force": f, "moment": m})
+    axis = {"x": 0, "y": 1, "z": 2}
+    nz = len(z0)
+    a_ub, b_ub = [], []
+    for j, signal in enumerate(request.peak):
+        kind, ax = signal.split("_")
+        e = signals[kind][axis[ax]]
+        g = np.array([r[kind][axis[ax]] for r in responses]).T  # (sample, unknown)
+        scale = max(float(np.abs(e).max()), float(np.abs(g).max()), 1e-300)
+        t = np.zeros((n, len(request.peak)))
+        t[:, j] = -1.0
+        # −t ≤ e + g z ≤ t
+        a_ub += [np.hstack([g / scale, t]), np.hstack([-g / scale, t])]
+        b_ub += [-e / scale, e / scale]
+    # Bounds |P| ≤ max_unbalance as an inscribed polygon.
+    i = 0
+    for c in free:
+        count = len(c.unknowns())
+        if c.max_unbalance is not None:
+            phi = 2 * np.pi * np.arange(BOUND_SIDES) / BOUND_SIDES
+            for u in range(i, i + count):
+                row = np.zeros((BOUND_SIDES, nz + len(request.peak)))
+                row[:, 2 * u], row[:, 2 * u + 1] = np.cos(phi), np.sin(phi)
+                a_ub.append(row)
+                b_ub.append(np.full(BOUND_SIDES, c.max_unbalance * math.cos(math.pi / BOUND_SIDES)))
+        i += count
+    keep = [r for r, t in enumerate(ok) if ok[t]]
+    m = len(ok)
+    eq_rows = keep + [r + m for r in keep]
+    a_eq = np.hstack([a[eq_rows], np.zeros((len(eq_rows), len(request.peak)))]) if eq_rows else None
+    b_eq = -b[eq_rows] if eq_rows else None
+    cost = np.concatenate([np.zeros(nz), np.ones(len(request.peak))])
+    bounds = [(None, None)] * nz + [(0, None)] * len(request.peak)
+    result = linprog(cost, A_ub=np.vstack(a_ub), b_ub=np.concatenate(b_ub), A_eq=a_eq, b_eq=b_eq, bounds=bounds,
+                     method="highs")
+    if not result.success:
+        raise DesignError(f"{scene.source}: the peak objective's linear programme failed: {result.message}")
+    return result.x[:nz]
+
+
+# --------------------------------------------------------------------------
+# The output scene
+
+
+def _q(value: float, units: str) -> str:
+    return f"{float(value)!r} {units}"
+
+
+def _length(value: float) -> str:
+    return f"{value * 1e3:.15g} mm"
+
+
+def _angle(value: float) -> str:
+    """Degrees in [0, 360), with round-off next to 0 written as 0."""
+    degrees = math.degrees(float(value)) % 360.0
+    if min(degrees, 360.0 - degrees) < 1e-10:
+        degrees = 0.0
+    return f"{degrees!r} deg"
+
+
+def _signed_angle(value: float) -> str:
+    """Degrees in (−180, 180], round-off next to 0 written as 0."""
+    degrees = math.degrees(math.remainder(float(value), 2 * math.pi))
+    return f"{0.0 if abs(degrees) < 1e-10 else degrees!r} deg"
+
+
+def _inline(value) -> str:
+    """A TOML value on one line."""
+    import tomli_w
+
+    if isinstance(value, list):
+        return "[" + ", ".join(_inline(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_inline(v)}" for k, v in value.items()) + " }"
+    return tomli_w.dumps({"v": value})[4:].strip()
+
+
+def _toml_tables(tables: dict) -> str:
+    """Top-level tables and arrays of tables, values inline, arrays of tables
+    inside them as [[parent.child]] blocks."""
+    lines = []
+
+    def block(header: str, path: str, table: dict) -> None:
+        lines.append(header)
+        nested = {k: v for k, v in table.items() if isinstance(v, list) and v and isinstance(v[0], dict)}
+        lines.extend(f"{k} = {_inline(v)}" for k, v in table.items() if k not in nested)
+        for key, entries in nested.items():
+            for entry in entries:
+                lines.append("")
+                block(f"[[{path}.{key}]]", f"{path}.{key}", entry)
+
+    for key, value in tables.items():
+        for entry in value if isinstance(value, list) else [value]:
+            lines.append("")
+            block(f"[[{key}]]" if isinstance(value, list) else f"[{key}]", key, entry)
+    return "\n".join(lines) + "\n"
+
+
+def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[dict, list[str]]:
+    """The designed elements as scene tables, and comment lines with rounded
+    values for the drawing office. Unbalances below ``negligible`` [kg m]
+    are left out (an element the design does not need)."""
+    tables: dict[str, list] = {"counterweight": [], "balance_shaft": [], "lanchester_pair": []}
+    notes = []
+
+    def unbalance(p: complex, x: float) -> dict:
+        return {"unbalance": _q(abs(p), "kg m"), "angle": _angle(np.angle(p)), "axial_position": _length(x)}
+
+    def note(label: str, p: complex, where: str) -> None:
+        notes.append(f"{label}: {abs(p) * 1e3:.5g} kg mm at {math.degrees(np.angle(p)) % 360:.2f}° {where}")
+
+    for c in request.candidates:
+        vs = values[c.label]
+        if all(abs(v) <= negligible for v in vs):
+            notes.append(f"{c.label}: not needed (zero unbalance)")
+            continue
+        if c.kind == "counterweights":
+            for j, (x, v) in enumerate(zip(c.planes, vs)):
+                label = f"{c.label} {j + 1}" if len(vs) > 1 else c.label
+                if abs(v) > negligible:
+                    tables["counterweight"].append({"label": label, **unbalance(v, x)})
+                    note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")
+        elif c.kind == "lanchester_pair" and abs(abs(vs[0]) - abs(vs[1])) <= 1e-9 * max(map(abs, vs)):
+            # Equal unbalances: a pair with direction α and phasing δ.
+            plus, minus = vs
+            phase = float(np.angle(plus / minus)) / 2
+            angle = float(np.angle(minus)) + phase
+            tables["lanchester_pair"].append({
+                "label": c.label, "order": c.ratio, "unbalance": _q((abs(plus) + abs(minus)) / 2, "kg m"),
+                "angle": _angle(angle), "phase": _signed_angle(phase), "axial_position": _length(c.planes[0]),
+                "heights": [_length(h) for h in c.heights], "lateral": [_length(y) for y in c.lateral]})
+            notes.append(f"{c.label} (±{c.ratio}×): {abs(plus) * 1e3:.5g} kg mm per shaft, standing vector along "
+                         f"{math.degrees(angle) % 360:.2f}°, phasing {round(math.degrees(phase), 2) + 0.0:.2f}°")
+        else:
+            if c.kind == "lanchester_pair":  # unequal unbalances: two separate shafts
+                shafts = [(f"{c.label} (+{c.ratio}×)", c.ratio, c.lateral[0], c.heights[0], [(vs[0], c.planes[0])]),
+                          (f"{c.label} (−{c.ratio}×)", -c.ratio, c.lateral[1], c.heights[1], [(vs[1], c.planes[0])])]
+            else:
+                parts = [(p.coefficient * v, p.x) for u, v in zip(c.unknowns(), vs) for p in u]
+                shafts = [(c.label, c.ratio, c.y, c.z, parts)]
+            for label, ratio, y, z, parts in shafts:
+                parts = [(p, x) for p, x in parts if abs(p) > negligible]
+                for p, x in parts:
+                    note(f"{label} ({ratio:+d}×)", p, f"at θ = 0, x = {x * 1e3:.6g} mm")
+                if parts:
+                    tables["balance_shaft"].append({"label": label, "ratio": ratio,
+                                                    "axis_position": [_length(y), _length(z)],
+                                                    "unbalance": [unbalance(p, x) for p, x in parts]})
+    return {k: v for k, v in tables.items() if v}, notes
+
+
+def _verify_toml(scene: Scene, request: DesignRequest, predicted) -> dict:
+    w2 = scene.speeds[0] ** 2
+    rows = []
+    for k in request.orders:
+        row = {"order": k}
+        for name, group in COMPONENTS:
+            if group in request.cancel:
+                p = predicted[name][k] * w2
+                row[name] = [_q(abs(p), "N" if group == "force" else "N m"), _angle(np.angle(p))]
+        rows.append(row)
+    return {"orders": list(request.orders), "cancel": list(request.cancel),
+            "speed": f"{scene.speeds[0] * 30 / math.pi:.15g} rpm", "predicted": rows}
+
+
+_HEADER = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_\-.\" ]+?)\s*\]\]?\s*(#.*)?$")
+
+
+def _without_tables(text: str, names: set[str]) -> str:
+    """The TOML text without the tables (and their sub-tables) ``names``."""
+    out, skipping = [], False
+    for line in text.splitlines():
+        match = _HEADER.match(line)
+        if match:
+            skipping = match.group(1).split(".")[0].strip() in names
+        if not skipping:
+            out.append(line)
+    return "\n".join(out).rstrip() + "\n"
+
+
+def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine: dict[str, str | None],
+                negligible: float) -> str:
+    """The input scene's text without [design] and [verify], with the designed
+    elements and the new [verify] appended (comments kept). Falls back to a
+    plain TOML dump if the text cannot be edited safely."""
+    import tomli_w
+
+    from ._version import __version__
+
+    original = tomllib.loads(scene.source_text)
+    tables, notes = _elements_toml(request, values, negligible)
+    addition = {**tables, "verify": _verify_toml(scene, request, predicted)}
+    expected = {k: v for k, v in original.items() if k not in ("design", "verify")}
+    for key, entries in tables.items():
+        expected[key] = list(expected.get(key, [])) + entries
+    expected["verify"] = addition["verify"]
+    engine = {k: v for k, v in engine.items() if v is not None}
+    expected["engine"] = {**expected["engine"], **engine}
+    header = [f"# Balancer elements designed by harmbal {__version__} from {scene.source}",
+              f"# (orders {', '.join(map(str, request.orders))}; cancel {', '.join(request.cancel)}; "
+              f"objective {request.objective}):"] + [f"#   {n}" for n in notes]
+    top = [f"# {expected['engine'].get('name', scene.name)}: {scene.source} with balancer elements designed by "
+           f"'harmbal design' (see the block before [verify]).", "#"]
+    body = _without_tables(scene.source_text, {"design", "verify"})
+    for key, value in engine.items():  # the first 'key = "..."' line is [engine]'s: [engine] is required first
+        body = re.sub(rf'(?m)^(\s*{key}\s*=\s*)"[^"\n]*"', lambda m: m.group(1) + _inline(value), body, count=1)
+    text = "\n".join(top) + "\n" + body + "\n" + "\n".join(header) + "\n" + _toml_tables(addition)
+    try:
+        if tomllib.loads(text) == expected:
+            return text
+    except tomllib.TOMLDecodeError:
+        pass
+    return "\n".join(top + header) + "\n" + tomli_w.dumps(expected)

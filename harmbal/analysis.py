@@ -62,8 +62,9 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     xarray.DataTree
         Groups ``/scene`` (cylinder table and scene text), ``/time``
         (:func:`harmbal.simulate`), ``/orders``
-        (:func:`harmbal.order_spectrum`) and ``/stars``
-        (:func:`harmbal.stars`).
+        (:func:`harmbal.order_spectrum`), ``/stars``
+        (:func:`harmbal.stars`) and, if the scene has a ``[verify]`` table,
+        ``/verify`` (:func:`harmbal.verify`).
     """
     import xarray as xr
 
@@ -75,5 +76,10 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         "harmbal_version": __version__,
         "conventions": CONVENTIONS,
     })
-    return xr.DataTree.from_dict({"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
-                                  "/stars": stars(scene, backend=backend)})
+    groups = {"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
+              "/stars": stars(scene, backend=backend)}
+    if scene.verify is not None:
+        from .balance_verify import verify
+
+        groups["/verify"] = verify(scene, backend=backend)
+    return xr.DataTree.from_dict(groups)

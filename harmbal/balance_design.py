@@ -40,7 +40,7 @@ from .balancers import Shaft, ShaftUnbalance, shaft_loads, shaft_phasors
 from .crank_stars import order_phasors
 from .design_spec import COMPONENTS, Candidate, DesignRequest, Placement
 from .orders import BALANCED_RTOL, rotating_split
-from .scene import Scene, scene_from_text
+from .scene import Scene, SceneError, scene_from_text
 from .timedomain import moment_about, unit_speed_loads
 
 #: Samples per revolution of the peak objective's linear programme: the
@@ -145,12 +145,22 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
 
 def _matrix(unknowns, targets, kmax, sense, ref, weights) -> np.ndarray:
     """Columns: the weighted rows of each real unknown (Re P, Im P)."""
-    columns = []
-    for placements in unknowns:
-        for value in (1.0, 1j):
-            force, moment = _element_phasors(placements, value, kmax, sense, ref)
-            columns.append(_rows(_components(force, moment, sense), targets, weights))
-    return np.array(columns).T.reshape(2 * len(targets), len(columns))
+    columns = [_rows(_components(*_element_phasors(placements, value, kmax, sense, ref), sense), targets, weights)
+               for placements in unknowns for value in (1.0, 1j)]
+    return np.array(columns).T if columns else np.zeros((2 * len(targets), 0))
+
+
+def _with_elements(force: np.ndarray, moment: np.ndarray, candidates, values, kmax: int, sense: int,
+                   ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-axis phasors (axis, order) plus those of the candidates at their
+    designed values."""
+    force, moment = force.copy(), moment.copy()
+    for c in candidates:
+        for placements, v in zip(c.unknowns(), values[c.label]):
+            f, m = _element_phasors(placements, v, kmax, sense, ref)
+            force += f
+            moment += m
+    return force, moment
 
 
 def _remedy(order: int, name: str) -> str:
@@ -214,23 +224,16 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     targets = _targets(request)
 
     # The engine, with the counterweights that the balance-factor rule sizes.
-    base_force, base_moment = engine.force.copy(), engine.moment.copy()
+    fixed = [c for c in request.candidates if c.balance_factor is not None]
+    free = [c for c in request.candidates if c.balance_factor is None]
     values: dict[str, list[complex]] = {}
-    free = []
-    for c in request.candidates:
-        if c.balance_factor is None:
-            free.append(c)
-            continue
+    for c in fixed:
         z = _factor_counterweights(scene, c, kmax, ref, weights)
         values[c.label] = list(z[0::2] + 1j * z[1::2])
-        for placements, v in zip(c.unknowns(), values[c.label]):
-            f, m = _element_phasors(placements, v, kmax, sense, ref)
-            base_force += f
-            base_moment += m
-    base = _components(base_force, base_moment, sense)
-    b = _rows(base, targets, weights)
+    base_force, base_moment = _with_elements(engine.force, engine.moment, fixed, values, kmax, sense, ref)
+    b = _rows(_components(base_force, base_moment, sense), targets, weights)
     unknowns = [u for c in free for u in c.unknowns()]
-    a = _matrix(unknowns, targets, kmax, sense, ref, weights) if unknowns else np.zeros((len(b), 0))
+    a = _matrix(unknowns, targets, kmax, sense, ref, weights)
     z = np.linalg.lstsq(a, -b, rcond=None)[0] if unknowns else np.zeros(0)
 
     def residual(z):
@@ -248,25 +251,22 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
         i += n
 
     # Predicted residual phasors at unit speed.
-    force, moment = base_force.copy(), base_moment.copy()
-    for c in free:
-        for placements, v in zip(c.unknowns(), values[c.label]):
-            f, m = _element_phasors(placements, v, kmax, sense, ref)
-            force += f
-            moment += m
-    predicted = _components(force, moment, sense)
+    predicted = _components(*_with_elements(base_force, base_moment, free, values, kmax, sense, ref), sense)
     for (k, component), cancelled in ok.items():
         if cancelled:  # round-off, not a prediction: no noise phase
             predicted[component][k] = 0
     before = {n: np.where(np.abs(v) <= BALANCED_RTOL * scales[n], 0, v)
               for n, v in _components(engine.force, engine.moment, sense).items()}
     w2 = scene.speeds[0] ** 2
-    messages = _messages(request, targets, ok, predicted, before, scales, a, w2, scene.speeds[0])
+    messages = _messages(request, targets, ok, predicted, before, a, w2, scene.speeds[0])
     messages += _bound_messages(request, values)
 
     text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
                        negligible=BALANCED_RTOL * force_scale)
-    designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)"), source=scene.source)
+    try:
+        designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)"), source=scene.source)
+    except SceneError as exc:  # e.g. a candidate's label already names an element of the scene
+        raise DesignError(f"the designed scene does not load:\n{exc}") from None
     labels = {e.label for e in scene.shafts}
     elements = tuple(e for e in designed.shafts if e.label not in labels)
 
@@ -313,7 +313,9 @@ def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:
     return {t: bool(s <= BALANCED_RTOL) for t, s in zip(targets, size)}
 
 
-def _messages(request, targets, ok, predicted, before, scales, a, w2, omega) -> list[str]:
+def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str]:
+    """In words, each target left: cannot be cancelled (no candidate acts on
+    it: which element would) or only partly (too few degrees of freedom)."""
     rpm = omega * 30 / math.pi
     n = len(targets)
     messages = []

@@ -99,6 +99,11 @@ def _run(args) -> None:
     scene = _load(args.scene)
     tree = analyse(scene, backend=args.backend)
     print(order_table(tree["orders"].ds))
+    if "verify" in tree.children:
+        from .tables import verify_table
+
+        print()
+        print(verify_table(tree["verify"].ds))
     if args.output is not None:
         save(tree, args.output)
         print(f"\nwrote {args.output}")

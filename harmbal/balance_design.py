@@ -47,6 +47,10 @@ from .timedomain import moment_about, unit_speed_loads
 #: sampled peak of an order-k signal is within (πk/N)²/2 of the true peak.
 PEAK_SAMPLES = 2048
 
+#: HiGHS's default feasibility tolerances (1e-7) leave the optimum ~1e-7
+#: relative short of the true one, which a fine sweep can beat; these reach it.
+LP_TOLERANCES = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+
 #: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the
 #: linear programme uses (it gives away at most 1 − cos(π/64) = 0.12 %).
 BOUND_SIDES = 64
@@ -400,7 +404,7 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref) -> np.ndarra
     cost = np.concatenate([np.zeros(nz), np.ones(len(request.peak))])
     bounds = [(None, None)] * nz + [(0, None)] * len(request.peak)
     result = linprog(cost, A_ub=np.vstack(a_ub), b_ub=np.concatenate(b_ub), A_eq=a_eq, b_eq=b_eq, bounds=bounds,
-                     method="highs")
+                     method="highs", options=LP_TOLERANCES)
     if not result.success:
         raise DesignError(f"{scene.source}: the peak objective's linear programme failed: {result.message}")
     return result.x[:nz]

@@ -7,10 +7,11 @@ engine's free force and moment phasors is a small real linear problem
 A·z = −b: the columns of A are the unit responses of the unknowns (computed
 by the same code that simulates the elements, :mod:`harmbal.balancers`), b
 the engine's phasors from :func:`harmbal.crank_stars.order_phasors`. It is
-solved by least squares, with force rows scaled by the engine's force scale
-and moment rows by its moment scale; lstsq's minimum-norm solution picks the
-smallest unbalances when several designs cancel the same. What is left is
-reported component by component, in words where it cannot be cancelled.
+solved by least squares in order of priority, the force first, then the
+moment, then the roll moment: each exact where it can be, least squares where
+it cannot, without giving up what the one before achieved; among the designs
+that remain, the smallest unbalances. What is left is reported component by
+component, in words where it cannot be cancelled.
 
 Two refinements:
 
@@ -206,7 +207,8 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     Raises
     ------
     DesignError
-        If there is no request or it targets orders the scene does not keep.
+        If there is no request, it targets orders the scene does not keep,
+        or the scene does not simulate balancers.
     """
     import xarray as xr
 
@@ -214,6 +216,9 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     if request is None:
         raise DesignError(f"{scene.source}: no [design] table: say which orders to balance with which elements "
                           "(docs/design.md)")
+    if "balancers" not in scene.model.effects:
+        raise DesignError(f"{scene.source}: model.effects: add \"balancers\"; without it the designed elements "
+                          "would not be simulated")
     kmax = scene.sampling.max_order
     if max(request.orders) > kmax or max((c.ratio for c in request.candidates), default=0) > kmax:
         raise DesignError(f"{scene.source}: design.orders: orders and shaft ratios must not exceed "
@@ -238,7 +243,7 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     b = _rows(_components(base_force, base_moment, sense), targets, weights)
     unknowns = [u for c in free for u in c.unknowns()]
     a = _matrix(unknowns, targets, kmax, sense, ref, weights)
-    z = np.linalg.lstsq(a, -b, rcond=None)[0] if unknowns else np.zeros(0)
+    z = _prioritised_least_squares(a, b, targets)
 
     def residual(z):
         return b + a @ z
@@ -263,6 +268,7 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
               for n, v in _components(engine.force, engine.moment, sense).items()}
     w2 = scene.speeds[0] ** 2
     messages = _messages(request, targets, ok, predicted, before, a, w2, scene.speeds[0])
+    messages += _height_hints(request, values, predicted, ok, (kmax, sense, ref), w2, BALANCED_RTOL * moment_scale)
     messages += _bound_messages(request, values)
 
     text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
@@ -310,6 +316,33 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     return Design(designed, text, elements, dataset, tuple(messages))
 
 
+def _prioritised_least_squares(a: np.ndarray, b: np.ndarray, targets) -> np.ndarray:
+    """Minimise |b + a·z| for the force rows, then, among those minimisers,
+    for the moment rows, then for the roll rows; finally take the smallest z.
+
+    Each stage is exact where it can be and least squares where it cannot,
+    and never gives up what an earlier stage achieved. The minimisers of a
+    stage form z₀ + N·y with N spanning the null space of that stage's rows
+    restricted to the earlier null space."""
+    from scipy.linalg import null_space
+
+    n = len(targets)
+    z = np.zeros(a.shape[1])
+    basis = np.eye(a.shape[1])
+    for group in ("force", "moment", "roll"):
+        rows = [i for i, (_, name) in enumerate(targets) if name.startswith(group)]
+        if not rows or basis.shape[1] == 0:
+            continue
+        rows += [i + n for i in rows]
+        restricted = a[rows] @ basis
+        y = np.linalg.lstsq(restricted, -(b[rows] + a[rows] @ z), rcond=None)[0]
+        z = z + basis @ y
+        basis = basis @ null_space(restricted, rcond=1e-12)
+    if basis.shape[1]:
+        z = z - basis @ np.linalg.lstsq(basis, z, rcond=None)[0]
+    return z
+
+
 def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:
     """Targets whose (weighted) residual is zero up to round-off."""
     n = len(targets)
@@ -339,6 +372,35 @@ def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str
                             f"{rpm:.6g} rpm): the elements acting at order {k} have too few degrees of freedom for "
                             "all the targets; add a plane or a shaft")
     return messages
+
+
+def _height_hints(request: DesignRequest, values, predicted, ok, frame, w2: float, tolerance: float) -> list[str]:
+    """For a Lanchester pair whose order's roll moment is targeted but left:
+    the height difference z₊ − z₋ that cancels it (the pair's two lateral
+    force components are equal and opposite, so its roll moment is linear in
+    the height difference and nothing else depends on the heights)."""
+    hints = []
+    for c in request.candidates:
+        k = c.ratio
+        if c.kind != "lanchester_pair" or ok.get((k, "roll"), True):
+            continue
+        zero = np.zeros((3, frame[0] + 1), dtype=complex)
+
+        def roll(heights):
+            pair = dataclasses.replace(c, heights=heights)
+            return _with_elements(zero, zero, [pair], {c.label: values[c.label]}, *frame)[1][0, k]
+
+        plus, minus = c.heights
+        slope = roll((plus + 0.5, minus - 0.5)) - roll(c.heights)  # per metre of height difference
+        if abs(slope) == 0:
+            continue
+        left = predicted["roll"][k]
+        change = -float((np.conj(slope) * left).real) / abs(slope) ** 2
+        rest = abs(left + change * slope)
+        hints.append(f"{c.label}: with the shafts {change * 1e3:+.6g} mm further apart in height (z₊ − z₋ = "
+                     f"{(plus - minus + change) * 1e3:.6g} mm) the pair would also cancel the order {k} roll moment"
+                     + (f" down to {rest * w2:.4g} N m" if rest > tolerance else ""))
+    return hints
 
 
 def _bound_messages(request: DesignRequest, values) -> list[str]:

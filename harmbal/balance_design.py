@@ -132,20 +132,19 @@ def _restricted(scene: Scene, effects: set[str]) -> Scene:
 
 def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: np.ndarray,
                            weights: dict[str, float]) -> np.ndarray:
-    """Unknowns of counterweights sized by the balance-factor rule: cancel the
-    rotating masses' first-order co-rotating force and moment plus 2f × the
-    reciprocating masses' (static balance alone with one plane)."""
-    sense = scene.sense
-    rot = order_phasors(_restricted(scene, {"rotating"}))
+    """Unknowns of counterweights sized by the balance-factor rule: together
+    with the counterweights already on the crank they cancel the first-order
+    co-rotating force and moment (static balance alone with one plane) of the
+    rotating masses (throw and crankshaft unbalances, rod big ends, the
+    crankshaft's own CG) plus 2f × those of the reciprocating masses."""
+    on_crank = tuple(e for e in scene.shafts if e.ratio == 1 and e.y == 0 and e.z == 0)
+    rot = order_phasors(dataclasses.replace(_restricted(scene, {"rotating", "balancers"}), shafts=on_crank))
     rec = order_phasors(_restricted(scene, {"reciprocating"}))
     f = candidate.balance_factor
-    target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, sense)
-    # The co-rotating half only: the rule's 2f·co of the reciprocating masses.
-    names = ["force_co"] + (["moment_co"] if len(candidate.planes) > 1 else [])
-    rows = [(1, name) for name in names]
-    b = _rows(target, rows, weights)
-    a = _matrix(candidate.unknowns(), rows, kmax, sense, ref, weights)
-    return np.linalg.lstsq(a, -b, rcond=None)[0]
+    target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
+    rows = [(1, "force_co")] + ([(1, "moment_co")] if len(candidate.planes) > 1 else [])
+    a = _matrix(candidate.unknowns(), rows, kmax, scene.sense, ref, weights)
+    return np.linalg.lstsq(a, -_rows(target, rows, weights), rcond=None)[0]
 
 
 def _matrix(unknowns, targets, kmax, sense, ref, weights) -> np.ndarray:
@@ -220,7 +219,7 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
         raise DesignError(f"{scene.source}: model.effects: add \"balancers\"; without it the designed elements "
                           "would not be simulated")
     kmax = scene.sampling.max_order
-    if max(request.orders) > kmax or max((c.ratio for c in request.candidates), default=0) > kmax:
+    if max(request.orders) > kmax or max((abs(c.ratio) for c in request.candidates), default=0) > kmax:
         raise DesignError(f"{scene.source}: design.orders: orders and shaft ratios must not exceed "
                           f"sampling.max_order = {kmax}")
     sense = scene.sense
@@ -363,8 +362,12 @@ def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str
         left = abs(predicted[name][k]) * w2
         was = abs(before[name][k]) * w2
         acting = np.hypot(a[row], a[row + n]) > BALANCED_RTOL * np.abs(a).max(initial=0.0)
-        if not acting.any():
-            names = ", ".join(c.describe() for c in request.candidates)
+        fixed = [c.label for c in request.candidates if c.balance_factor is not None]
+        if not acting.any() and k == 1 and name.endswith("_co") and fixed:
+            messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm is what the balance factor of "
+                            f"{', '.join(fixed)} leaves (0.5 cancels it); to cancel it add a +1× shaft")
+        elif not acting.any():
+            names = ", ".join(c.describe() for c in request.candidates if c.balance_factor is None) or "the candidates"
             messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm cannot be cancelled by "
                             f"{names}; add {_remedy(k, name)}")
         else:
@@ -567,15 +570,16 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
                          f"{math.degrees(angle) % 360:.2f}°, phasing {round(math.degrees(phase), 2) + 0.0:.2f}°")
         else:
             if c.kind == "lanchester_pair":  # unequal unbalances: two separate shafts
-                shafts = [(f"{c.label} (+{c.ratio}×)", c.ratio, c.lateral[0], c.heights[0], [(vs[0], c.planes[0])]),
-                          (f"{c.label} (−{c.ratio}×)", -c.ratio, c.lateral[1], c.heights[1], [(vs[1], c.planes[0])])]
+                shafts = [(name, ratio, y, z, [(v, c.planes[0])]) for name, ratio, y, z, v in zip(
+                    c.names(), (c.ratio, -c.ratio), c.lateral, c.heights, vs)]
             else:
                 parts = [(p.coefficient * v, p.x) for u, v in zip(c.unknowns(), vs) for p in u]
                 shafts = [(c.label, c.ratio, c.y, c.z, parts)]
             for label, ratio, y, z, parts in shafts:
                 parts = [(p, x) for p, x in parts if abs(p) > negligible]
                 for p, x in parts:
-                    note(f"{label} ({ratio:+d}×)", p, f"at θ = 0, x = {x * 1e3:.6g} mm")
+                    note(label if c.kind == "lanchester_pair" else f"{label} ({ratio:+d}×)", p,
+                         f"at θ = 0, x = {x * 1e3:.6g} mm")
                 if parts:
                     tables["balance_shaft"].append({"label": label, "ratio": ratio,
                                                     "axis_position": [_length(y), _length(z)],

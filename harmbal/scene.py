@@ -461,7 +461,7 @@ class _Reader:
             return ratio
         return 1
 
-    def candidate(self, kind: str, path: str, entry: Mapping) -> Candidate:
+    def candidate(self, kind: str, path: str, entry: Mapping, max_order: int) -> Candidate:
         self.unknown(entry, path, _CANDIDATE_KEYS[kind])
         number = path.rsplit("[", 1)[-1].rstrip("]")
         label = self.string(entry, "label", path, "counterweights" if kind == "counterweights"
@@ -482,6 +482,8 @@ class _Reader:
             order = 1
             if "order" in entry:
                 order = self.integer(entry, "order", path, 1, 1)
+                if order > max_order:
+                    self.fail(_join(path, "order"), order, f"must not exceed sampling.max_order = {max_order}")
             else:
                 self.fail(_join(path, "order"), _MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
@@ -490,7 +492,10 @@ class _Reader:
             return Candidate(kind, label, order, (x,), heights=heights, lateral=lateral, max_unbalance=bound)
         y, z = self.position(entry, "axis_position", path)
         planes = self.lengths(entry, "planes", path, 2 if kind == "moment_shaft" else None)
-        return Candidate(kind, label, self.ratio(entry, "ratio", path), planes, y=y, z=z, max_unbalance=bound)
+        ratio = self.ratio(entry, "ratio", path)
+        if abs(ratio) > max_order:
+            self.fail(_join(path, "ratio"), ratio, f"|ratio| must not exceed sampling.max_order = {max_order}")
+        return Candidate(kind, label, ratio, planes, y=y, z=z, max_unbalance=bound)
 
     def design(self, raw: Any, max_order: int) -> DesignRequest | None:
         if not isinstance(raw, Mapping):
@@ -503,7 +508,7 @@ class _Reader:
         peak = self.names(raw, "peak", "design", PEAK_SIGNALS, ("moment_y", "moment_z"))
         if "peak" in raw and objective != "peak":
             self.fail("design.peak", raw["peak"], 'only used with objective = "peak"')
-        candidates = [self.candidate(kind, path, entry) for kind in _CANDIDATE_KEYS
+        candidates = [self.candidate(kind, path, entry, max_order) for kind in _CANDIDATE_KEYS
                       for path, entry in self.array(raw.get(kind, []), f"design.{kind}")]
         if not candidates:
             self.fail("design", sorted(raw), "give at least one candidate element: "

@@ -39,14 +39,10 @@ import numpy as np
 
 from .balancers import Shaft, ShaftUnbalance, shaft_loads, shaft_phasors
 from .crank_stars import order_phasors
-from .design_spec import COMPONENTS, Candidate, DesignRequest, Placement
+from .design_spec import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, Placement
 from .orders import BALANCED_RTOL, rotating_split
 from .scene import Scene, SceneError, scene_from_text
 from .timedomain import moment_about, unit_speed_loads
-
-#: Samples per revolution of the peak objective's linear programme: the
-#: sampled peak of an order-k signal is within (πk/N)²/2 of the true peak.
-PEAK_SAMPLES = 2048
 
 #: HiGHS's default feasibility tolerances (1e-7) leave the optimum ~1e-7
 #: relative short of the true one, which a fine sweep can beat; these reach it.
@@ -249,7 +245,7 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
 
     ok = _cancelled(residual(z), targets)
     if request.objective == "peak" and unknowns:
-        z = _peak_design(scene, request, free, unknowns, z, a, b, ok, ref)
+        z = _peak_design(scene, request, free, unknowns, z, a, b, ok, ref, fixed=(fixed, values))
         ok = _cancelled(residual(z), targets)
 
     i = 0
@@ -322,24 +318,25 @@ def _prioritised_least_squares(a: np.ndarray, b: np.ndarray, targets) -> np.ndar
     Each stage is exact where it can be and least squares where it cannot,
     and never gives up what an earlier stage achieved. The minimisers of a
     stage form z₀ + N·y with N spanning the null space of that stage's rows
-    restricted to the earlier null space."""
-    from scipy.linalg import null_space
-
+    restricted to the earlier null space. Singular values are judged against
+    the whole matrix (rows are already scaled alike), not within a stage:
+    a stage whose restricted rows are round-off must not be solved with them.
+    """
     n = len(targets)
     z = np.zeros(a.shape[1])
     basis = np.eye(a.shape[1])
+    cutoff = 1e-10 * (np.linalg.norm(a, 2) if a.size else 0.0)
     for group in ("force", "moment", "roll"):
         rows = [i for i, (_, name) in enumerate(targets) if name.startswith(group)]
         if not rows or basis.shape[1] == 0:
             continue
         rows += [i + n for i in rows]
-        restricted = a[rows] @ basis
-        y = np.linalg.lstsq(restricted, -(b[rows] + a[rows] @ z), rcond=None)[0]
-        z = z + basis @ y
-        basis = basis @ null_space(restricted, rcond=1e-12)
-    if basis.shape[1]:
-        z = z - basis @ np.linalg.lstsq(basis, z, rcond=None)[0]
-    return z
+        u, singular, vt = np.linalg.svd(a[rows] @ basis)
+        rank = int((singular > cutoff).sum())
+        rhs = -(b[rows] + a[rows] @ z)
+        z = z + basis @ (vt[:rank].T @ ((u[:, :rank].T @ rhs) / singular[:rank]))
+        basis = basis @ vt[rank:].T
+    return z - basis @ (basis.T @ z)  # the smallest unbalances among the minimisers
 
 
 def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:
@@ -364,16 +361,16 @@ def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str
         acting = np.hypot(a[row], a[row + n]) > BALANCED_RTOL * np.abs(a).max(initial=0.0)
         fixed = [c.label for c in request.candidates if c.balance_factor is not None]
         if not acting.any() and k == 1 and name.endswith("_co") and fixed:
-            messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm is what the balance factor of "
-                            f"{', '.join(fixed)} leaves (0.5 cancels it); to cancel it add a +1× shaft")
+            messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm is what the balance factor "
+                            f"of {', '.join(map(repr, fixed))} leaves (0.5 cancels it); to cancel it add a +1× shaft")
         elif not acting.any():
             names = ", ".join(c.describe() for c in request.candidates if c.balance_factor is None) or "the candidates"
             messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm cannot be cancelled by "
                             f"{names}; add {_remedy(k, name)}")
         else:
-            messages.append(f"{_describe(k, name)} is only partly cancelled ({was:.4g} → {left:.4g} {units} at "
-                            f"{rpm:.6g} rpm): the elements acting at order {k} have too few degrees of freedom for "
-                            "all the targets; add a plane or a shaft")
+            messages.append(f"{_describe(k, name)} is left at {left:.4g} {units} (was {was:.4g} {units}) at {rpm:.6g} "
+                            f"rpm: the elements acting at order {k} have too few degrees of freedom for all the "
+                            "targets (force first, then moment, then roll); add a plane or a shaft")
     return messages
 
 
@@ -417,10 +414,11 @@ def _bound_messages(request: DesignRequest, values) -> list[str]:
     return messages
 
 
-def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref) -> np.ndarray:
+def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np.ndarray:
     """Minimise the summed peaks of the chosen signals over the sampled
     revolution with the cancelled targets as equality constraints: a linear
-    programme in (z, t)."""
+    programme in (z, t). The signals are the engine's with the ``fixed``
+    (candidates, values) elements."""
     from scipy.optimize import linprog
 
     sense = scene.sense
@@ -430,6 +428,10 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref) -> np.ndarra
     force = unit.force_cylinder.sum(axis=0) + unit.force_crankshaft
     moment = (moment_about(ref, unit.force_cylinder, unit.moment_cylinder).sum(axis=0)
               + moment_about(ref, unit.force_crankshaft, unit.moment_crankshaft))
+    for c in fixed[0]:
+        for placements, v in zip(c.unknowns(), fixed[1][c.label]):
+            f, m = _element_loads(placements, v, theta, sense, ref)
+            force, moment = force + f, moment + m
     signals = {"force": force, "moment": moment}
     responses = []
     for placements in unknowns:
@@ -552,8 +554,7 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
             notes.append(f"{c.label}: not needed (zero unbalance)")
             continue
         if c.kind == "counterweights":
-            for j, (x, v) in enumerate(zip(c.planes, vs)):
-                label = f"{c.label} {j + 1}" if len(vs) > 1 else c.label
+            for label, x, v in zip(c.names(), c.planes, vs):
                 if abs(v) > negligible:
                     tables["counterweight"].append({"label": label, **unbalance(v, x)})
                     note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")

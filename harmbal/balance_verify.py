@@ -17,7 +17,7 @@ import dataclasses
 import numpy as np
 
 from .crank_stars import VERIFY_RTOL
-from .design_spec import COMPONENTS, VerifyRequest
+from .design_spec import COMPONENTS, PEAK_SAMPLES, VerifyRequest
 from .orders import BALANCED_RTOL, order_spectrum
 from .scene import Scene
 from .timedomain import choose_samples, simulate
@@ -77,7 +77,7 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     if request is None:
         raise VerifyError(f"{scene.source}: nothing to verify: the scene has no [verify] table (harmbal design "
                           "writes one); give the orders to check")
-    samples = choose_samples(scene)
+    samples = max(choose_samples(scene), PEAK_SAMPLES)  # peaks over the revolution need fine sampling
     bare = dataclasses.replace(scene, model=dataclasses.replace(
         scene.model, effects=scene.model.effects - {"balancers"}))
     time_after = simulate(scene, samples_per_rev=samples)

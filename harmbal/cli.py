@@ -63,7 +63,7 @@ def _parser() -> argparse.ArgumentParser:
     design.add_argument("-o", "--output", type=Path, required=True, help="scene file to write (TOML)")
     design.add_argument("--name", help="engine.name of the output scene (default: the input's)")
     design.add_argument("--partial", action="store_true",
-                        help="write the least-squares design even if some targets cannot be cancelled")
+                        help="write the design even if some targets cannot be cancelled")
     design.set_defaults(handler=_design)
 
     check = commands.add_parser(
@@ -160,7 +160,7 @@ def _design(args) -> None:
     print(verify_table(check))
     if not result.feasible and not args.partial:
         raise _Disagreement("some targets cannot be cancelled (see above); nothing written (--partial writes "
-                            "the least-squares design)")
+                            "the design anyway)")
     if check.attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the design; nothing written")
     _write_text(args.output, result.text)

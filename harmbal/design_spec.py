@@ -35,6 +35,11 @@ CANDIDATE_KINDS = ("counterweights", "balance_shaft", "moment_shaft", "lancheste
 #: minimum norm), or the smallest peak over the revolution of chosen signals.
 OBJECTIVES = ("least_squares", "peak")
 
+#: Samples per revolution for peaks over the revolution (the peak objective,
+#: verification): the sampled peak of an order-k signal is within (πk/N)²/2
+#: of the true peak, 1.2e-6 relative for order 1.
+PEAK_SAMPLES = 2048
+
 #: Signals whose peak over the revolution the "peak" objective can minimise.
 PEAK_SIGNALS = ("force_y", "force_z", "moment_x", "moment_y", "moment_z")
 
@@ -105,11 +110,12 @@ class Candidate:
         """A name for each unknown, e.g. 'counterweights at x = 55 mm'."""
         if self.kind == "lanchester_pair":
             return [f"{self.label} (+{self.ratio}×)", f"{self.label} (−{self.ratio}×)"]
+        speed = f"{'+' if self.ratio > 0 else '−'}{abs(self.ratio)}×"
         if self.kind == "moment_shaft":
-            return [f"{self.label} ({self.ratio:+d}×) couple, x = "
-                    + " / ".join(f"{x * 1e3:g}" for x in self.planes) + " mm"]
-        speed = "" if self.kind == "counterweights" else f" ({self.ratio:+d}×)"
-        return [f"{self.label}{speed} at x = {x * 1e3:g} mm" for x in self.planes]
+            return [f"{self.label} ({speed}) couple, x = " + " / ".join(f"{x * 1e3:g}" for x in self.planes) + " mm"]
+        if self.kind == "counterweights":  # the labels the written [[counterweight]] tables get
+            return [f"{self.label} {j + 1}" for j in range(len(self.planes))] if len(self.planes) > 1 else [self.label]
+        return [f"{self.label} ({speed}) at x = {x * 1e3:g} mm" for x in self.planes]
 
     def describe(self) -> str:
         """A short name for messages, e.g. 'crank counterweights' or 'a −1× shaft'."""

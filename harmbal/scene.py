@@ -474,8 +474,8 @@ class _Reader:
                 factor = self.quantity(entry, "balance_factor", path, "dimensionless")
                 if math.isfinite(factor) and not 0 <= factor <= 1:
                     self.fail(_join(path, "balance_factor"), entry["balance_factor"],
-                              "must lie in [0, 1] (0 = rotating masses only, 1 = all of the first-order "
-                              "reciprocating force's co-rotating share doubled)")
+                              "must lie in [0, 1]: the share of the reciprocating masses the counterweights carry "
+                              "besides the rotating masses")
             return Candidate(kind, label, 1, self.lengths(entry, "planes", path), balance_factor=factor,
                              max_unbalance=bound)
         if kind == "lanchester_pair":
@@ -527,6 +527,9 @@ class _Reader:
         cancel = self.names(raw, "cancel", "verify", CANCEL, ("force", "moment"))
         speed = self.quantity(raw, "speed", "verify", "speed", positive=True) if "speed" in raw else None
         tolerance = self.quantity(raw, "tolerance", "verify", "dimensionless", default=0.0, nonnegative=True)
+        if math.isfinite(tolerance) and tolerance >= 1:
+            self.fail("verify.tolerance", raw["tolerance"], "must lie in [0, 1): the share of each value without "
+                      "balancers that may remain")
         predicted = []
         if "predicted" in raw and speed is None:
             self.fail("verify.predicted", _MISSING, "needs verify.speed, the speed the predictions are given at")

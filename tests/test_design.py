@@ -15,7 +15,8 @@ import pytest
 import tomli_w
 
 import harmbal as hb
-from harmbal.balance_design import BOUND_SIDES, PEAK_SAMPLES
+from harmbal.balance_design import BOUND_SIDES
+from harmbal.design_spec import PEAK_SAMPLES
 from harmbal.cli import main
 from harmbal.design_spec import Candidate, DesignRequest
 from harmbal.scene import SceneError, scene_from_text
@@ -324,8 +325,8 @@ def test_inline3_counterweights_and_moment_shaft_closed_form():
 
     design = hb.design(load("inline-3"))
     assert list(design.dataset["element"].values) == [
-        "counterweights at x = -120 mm", "counterweights at x = 120 mm",
-        "balance shaft (-1×) couple, x = -120 / 120 mm"]
+        "counterweights 1", "counterweights 2",
+        "balance shaft (−1×) couple, x = -120 / 120 mm"]
     expected = [co / 0.24, -co / 0.24, counter / 0.24]
     np.testing.assert_allclose(designed_phasors(design), expected, rtol=1e-9)
     np.testing.assert_allclose(unbalance_phasors(design.elements), expected + [-counter / 0.24], rtol=1e-9)
@@ -399,7 +400,7 @@ def test_what_the_balance_factor_leaves_is_named_as_such():
     scene = load("test-single")
     design = hb.design(scene, counterweights_only(scene))
     message = next(m for m in design.messages if "order 1 co-rotating force" in m)
-    assert "is what the balance factor of counterweight leaves" in message
+    assert "is what the balance factor of 'counterweight' leaves" in message
     assert "add a +1× shaft" in message and "cannot be cancelled" not in message
 
 

@@ -39,7 +39,7 @@ import numpy as np
 
 from .balancers import Shaft, ShaftUnbalance, shaft_loads, shaft_phasors
 from .crank_stars import order_phasors
-from .design_spec import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, Placement
+from .design_spec import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, Placement, signed_ratio
 from .orders import BALANCED_RTOL, rotating_split
 from .scene import Scene, SceneError, scene_from_text
 from .timedomain import moment_about, unit_speed_loads
@@ -397,8 +397,8 @@ def _height_hints(request: DesignRequest, values, predicted, ok, frame, w2: floa
         left = predicted["roll"][k]
         change = -float((np.conj(slope) * left).real) / abs(slope) ** 2
         rest = abs(left + change * slope)
-        hints.append(f"{c.label}: with the shafts {change * 1e3:+.6g} mm further apart in height (z₊ − z₋ = "
-                     f"{(plus - minus + change) * 1e3:.6g} mm) the pair would also cancel the order {k} roll moment"
+        hints.append(f"{c.label}: with z₊ − z₋ = {(plus - minus + change) * 1e3:.6g} mm (now {(plus - minus) * 1e3:.6g} "
+                     f"mm) the pair would also cancel the order {k} roll moment"
                      + (f" down to {rest * w2:.4g} N m" if rest > tolerance else ""))
     return hints
 
@@ -579,7 +579,7 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
             for label, ratio, y, z, parts in shafts:
                 parts = [(p, x) for p, x in parts if abs(p) > negligible]
                 for p, x in parts:
-                    note(label if c.kind == "lanchester_pair" else f"{label} ({ratio:+d}×)", p,
+                    note(label if c.kind == "lanchester_pair" else f"{label} ({signed_ratio(ratio)})", p,
                          f"at θ = 0, x = {x * 1e3:.6g} mm")
                 if parts:
                     tables["balance_shaft"].append({"label": label, "ratio": ratio,

@@ -69,7 +69,8 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     Raises
     ------
     VerifyError
-        If there is no request.
+        If there is no request or it names an order above the scene's
+        ``max_order``.
     """
     import xarray as xr
 
@@ -77,6 +78,9 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     if request is None:
         raise VerifyError(f"{scene.source}: nothing to verify: the scene has no [verify] table (harmbal design "
                           "writes one); give the orders to check")
+    if max(request.orders) > scene.sampling.max_order:
+        raise VerifyError(f"{scene.source}: order {max(request.orders)} is above sampling.max_order = "
+                          f"{scene.sampling.max_order}")
     samples = max(choose_samples(scene), PEAK_SAMPLES)  # peaks over the revolution need fine sampling
     bare = dataclasses.replace(scene, model=dataclasses.replace(
         scene.model, effects=scene.model.effects - {"balancers"}))

@@ -44,6 +44,11 @@ PEAK_SAMPLES = 2048
 PEAK_SIGNALS = ("force_y", "force_z", "moment_x", "moment_y", "moment_z")
 
 
+def signed_ratio(ratio: int) -> str:
+    """A speed ratio as written in messages: '+2×', '−1×'."""
+    return f"{'+' if ratio > 0 else '−'}{abs(ratio)}×"
+
+
 @dataclass(frozen=True)
 class Placement:
     """Where an unknown complex unbalance P acts: coefficient·P on a body
@@ -110,7 +115,7 @@ class Candidate:
         """A name for each unknown, e.g. 'counterweights at x = 55 mm'."""
         if self.kind == "lanchester_pair":
             return [f"{self.label} (+{self.ratio}×)", f"{self.label} (−{self.ratio}×)"]
-        speed = f"{'+' if self.ratio > 0 else '−'}{abs(self.ratio)}×"
+        speed = signed_ratio(self.ratio)
         if self.kind == "moment_shaft":
             return [f"{self.label} ({speed}) couple, x = " + " / ".join(f"{x * 1e3:g}" for x in self.planes) + " mm"]
         if self.kind == "counterweights":  # the labels the written [[counterweight]] tables get

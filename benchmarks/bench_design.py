@@ -25,11 +25,10 @@ from __future__ import annotations
 import argparse
 import functools
 import math
-import os
-import platform
 import time
-import timeit
 from pathlib import Path
+
+from timing import machine, min_seconds
 
 ROOT = Path(__file__).resolve().parent.parent
 ENGINES = ROOT / "datasets" / "engines"
@@ -135,27 +134,12 @@ if pytest is not None:
 
 # -- plain script ---------------------------------------------------------------
 
-def min_seconds(function, repeat: int) -> float:
-    """Minimum over ``repeat`` timeit repeats of the time per call."""
-    function()
-    timer = timeit.Timer(function)
-    number, _ = timer.autorange()
-    return min(timer.repeat(repeat=repeat, number=number)) / number
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="timeit repeats (the minimum is reported)")
     args = parser.parse_args()
 
-    import harmbal as hb
-    import numpy
-    import scipy
-    import xarray
-
-    print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
-          f"{platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
-          f"xarray {xarray.__version__}, harmbal {hb.__version__}; min of {args.repeat} timeit repeats")
+    print(machine(args.repeat))
     print("| engine | objective | `design` | `verify` |")
     print("|---|---|---|---|")
     for stem in DESIGNS:

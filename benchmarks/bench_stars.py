@@ -23,10 +23,9 @@ from __future__ import annotations
 
 import argparse
 import functools
-import os
-import platform
-import timeit
 from pathlib import Path
+
+from timing import machine, min_seconds
 
 ROOT = Path(__file__).resolve().parent.parent
 ENGINES = ROOT / "datasets" / "engines"
@@ -122,23 +121,10 @@ if pytest is not None:
 
 # -- plain script ---------------------------------------------------------------
 
-def min_seconds(function, repeat: int) -> float:
-    """Minimum over ``repeat`` timeit repeats of the time per call."""
-    function()
-    timer = timeit.Timer(function)
-    number, _ = timer.autorange()
-    return min(timer.repeat(repeat=repeat, number=number)) / number
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7, help="timeit repeats (the minimum is reported)")
     args = parser.parse_args()
-
-    import harmbal as hb
-    import numpy
-    import scipy
-    import xarray
 
     columns = [(engine, sampling) for engine in SCENES for sampling in SAMPLINGS]
     times = {}
@@ -150,9 +136,7 @@ def main() -> None:
         for path, function in PATHS.items():
             times[path, engine, sampling] = min_seconds(functools.partial(function, s, samples), args.repeat)
 
-    print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
-          f"{platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
-          f"xarray {xarray.__version__}, harmbal {hb.__version__}; min of {args.repeat} timeit repeats")
+    print(machine(args.repeat))
     header = [f"{e} ({len(scene(e).cylinders)} cyl), {samples_used(e, SAMPLINGS[p])} samples/rev"
               for e, p in columns]
     print("| path | " + " | ".join(header) + " |")

@@ -11,10 +11,11 @@ netCDF tool can read the file as it is.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from .files import atomic_path
 
 PART = "part"
 _ENCODING_ATTR = "complex_encoding"
@@ -76,14 +77,8 @@ def save(tree, path: str | os.PathLike) -> Path:
     path = Path(path)
     encoded = xr.DataTree.from_dict({node.path: _encode(node.to_dataset(inherit=False))
                                      for node in tree.subtree})
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         encoded.to_netcdf(tmp, engine="h5netcdf")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -121,11 +121,6 @@ def _rows(components: dict[str, np.ndarray], targets: list[tuple[int, str]], wei
     return np.concatenate([values.real, values.imag])
 
 
-def _restricted(scene: Scene, effects: set[str]) -> Scene:
-    return dataclasses.replace(scene, model=dataclasses.replace(scene.model, effects=frozenset(
-        scene.model.effects & effects)))
-
-
 def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: np.ndarray,
                            weights: dict[str, float]) -> np.ndarray:
     """Unknowns of counterweights sized by the balance-factor rule: together
@@ -134,8 +129,8 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
     rotating masses (throw and crankshaft unbalances, rod big ends, the
     crankshaft's own CG) plus 2f × those of the reciprocating masses."""
     on_crank = tuple(e for e in scene.shafts if e.ratio == 1 and e.y == 0 and e.z == 0)
-    rot = order_phasors(dataclasses.replace(_restricted(scene, {"rotating", "balancers"}), shafts=on_crank))
-    rec = order_phasors(_restricted(scene, {"reciprocating"}))
+    rot = order_phasors(dataclasses.replace(scene.with_effects({"rotating", "balancers"}), shafts=on_crank))
+    rec = order_phasors(scene.with_effects({"reciprocating"}))
     f = candidate.balance_factor
     target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
     rows = [(1, "force_co")] + ([(1, "moment_co")] if len(candidate.planes) > 1 else [])

@@ -12,7 +12,6 @@ the percentage removed.
 
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 
@@ -82,8 +81,7 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         raise VerifyError(f"{scene.source}: order {max(request.orders)} is above sampling.max_order = "
                           f"{scene.sampling.max_order}")
     samples = max(choose_samples(scene), PEAK_SAMPLES)  # peaks over the revolution need fine sampling
-    bare = dataclasses.replace(scene, model=dataclasses.replace(
-        scene.model, effects=scene.model.effects - {"balancers"}))
+    bare = scene.with_effects(scene.model.effects - {"balancers"})
     time_after = simulate(scene, samples_per_rev=samples)
     time_before = simulate(bare, samples_per_rev=samples)
     after = order_spectrum(time_after, backend=backend).sel(order=list(request.orders))

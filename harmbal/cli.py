@@ -163,23 +163,11 @@ def _design(args) -> None:
                             "the design anyway)")
     if check.attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the design; nothing written")
-    _write_text(args.output, result.text)
+    from .files import atomic_path
+
+    with atomic_path(args.output) as tmp:
+        tmp.write_text(result.text, encoding="utf-8")
     print(f"\nwrote {args.output}")
-
-
-def _write_text(path: Path, text: str) -> None:
-    """Write atomically: a reader never sees half a file."""
-    import os
-    import tempfile
-
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
-        raise
 
 
 def _verify(args) -> None:

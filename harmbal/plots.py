@@ -20,7 +20,6 @@ only when a function here is called: ``import harmbal`` stays light.
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -28,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .crank_stars import star_arms
+from .files import atomic_path
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -531,14 +531,7 @@ def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
     if fmt not in FIGURE_FORMATS:
         raise ValueError(f"{path}: figures are written as .svg or .png, not {path.suffix or 'no extension'!r}")
     options = {"svg": {"metadata": {"Date": None}}, "png": {"dpi": 150}}[fmt]
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with matplotlib.rc_context({"svg.hashsalt": "harmbal", "svg.fonttype": "none"}):
-            fig.savefig(tmp, format=fmt, **options)
+    with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "harmbal", "svg.fonttype": "none"}):
+        fig.savefig(tmp, format=fmt, **options)
         os.chmod(tmp, 0o644)  # mkstemp makes it private; a figure is not
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path

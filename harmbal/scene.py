@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -182,6 +182,10 @@ class Scene:
     verify: VerifyRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
+
+    def with_effects(self, effects: set[str] | frozenset[str]) -> "Scene":
+        """The same scene simulating only those of its effects in ``effects``."""
+        return replace(self, model=replace(self.model, effects=self.model.effects & effects))
 
     @property
     def sense(self) -> int:
@@ -408,8 +412,11 @@ class _Reader:
         labels = [s.label for s in shafts]
         for label in sorted({x for x in labels if labels.count(x) > 1}):
             self.fail("balancer elements", label, "two balancer elements have this label; labels must be unique")
-        design = self.design(data["design"], sampling.max_order) if "design" in data else None
-        verify = self.verify(data["verify"], sampling.max_order) if "verify" in data else None
+        requests = {}
+        for key, allowed, read in (("design", _DESIGN_KEYS, self.design), ("verify", _VERIFY_KEYS, self.verify)):
+            table = self.table(data, key, key, allowed)  # reports a non-table and unknown keys
+            requests[key] = read(table, sampling.max_order) if isinstance(data.get(key), Mapping) else None
+        design, verify = requests["design"], requests["verify"]
         return Scene(name=name, description=description, cycle=cycle, rotation=rotation, speeds=speeds,
                      reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts,
                      model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
@@ -497,11 +504,7 @@ class _Reader:
             self.fail(_join(path, "ratio"), ratio, f"|ratio| must not exceed sampling.max_order = {max_order}")
         return Candidate(kind, label, ratio, planes, y=y, z=z, max_unbalance=bound)
 
-    def design(self, raw: Any, max_order: int) -> DesignRequest | None:
-        if not isinstance(raw, Mapping):
-            self.fail("design", raw, "must be a table")
-            return None
-        self.unknown(raw, "design", _DESIGN_KEYS)
+    def design(self, raw: dict, max_order: int) -> DesignRequest:
         orders = self.orders(raw, "design", max_order)
         cancel = self.names(raw, "cancel", "design", CANCEL, ("force", "moment"))
         objective = self.choice(raw, "objective", "design", OBJECTIVES, "least_squares")
@@ -518,11 +521,7 @@ class _Reader:
             self.fail("design", label, "two candidate elements have this label; labels must be unique")
         return DesignRequest(orders, tuple(candidates), cancel, objective, peak)
 
-    def verify(self, raw: Any, max_order: int) -> VerifyRequest | None:
-        if not isinstance(raw, Mapping):
-            self.fail("verify", raw, "must be a table")
-            return None
-        self.unknown(raw, "verify", _VERIFY_KEYS)
+    def verify(self, raw: dict, max_order: int) -> VerifyRequest:
         orders = self.orders(raw, "verify", max_order)
         cancel = self.names(raw, "cancel", "verify", CANCEL, ("force", "moment"))
         speed = self.quantity(raw, "speed", "verify", "speed", positive=True) if "speed" in raw else None

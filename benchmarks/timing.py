@@ -1,0 +1,30 @@
+"""Shared by the benchmark scripts: how a figure is timed, and the machine
+line printed above each table."""
+
+from __future__ import annotations
+
+import os
+import platform
+import timeit
+
+
+def min_seconds(function, repeat: int) -> float:
+    """Minimum over ``repeat`` timeit repeats of the time per call, after one
+    warm-up call (loop count from ``Timer.autorange``, ≥ 0.2 s per repeat)."""
+    function()
+    timer = timeit.Timer(function)
+    number, _ = timer.autorange()
+    return min(timer.repeat(repeat=repeat, number=number)) / number
+
+
+def machine(repeat: int) -> str:
+    """Machine, Python and library versions, and the timing rule."""
+    import numpy
+    import scipy
+    import xarray
+
+    import harmbal
+
+    return (f"machine: {platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
+            f"{platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
+            f"xarray {xarray.__version__}, harmbal {harmbal.__version__}; min of {repeat} timeit repeats")

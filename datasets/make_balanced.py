@@ -26,6 +26,8 @@ VARIANTS = {
                                                     "moment-balance shaft"),
     "tractor-3cyl-balanced": ("tractor-3cyl-tuned", "Reference engine A with its balancers and counterweights "
                                                     "tuned to the smallest peak moments"),
+    "lever-single": ("lever-single-optimised", "Reference engine C with the balance weight that minimises the "
+                                               "peak-to-peak frame force (illustrative geometry)"),
 }
 
 

@@ -63,8 +63,10 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         Groups ``/scene`` (cylinder table and scene text), ``/time``
         (:func:`harmbal.simulate`), ``/orders``
         (:func:`harmbal.order_spectrum`), ``/stars``
-        (:func:`harmbal.stars`) and, if the scene has a ``[verify]`` table,
-        ``/verify`` (:func:`harmbal.verify`).
+        (:func:`harmbal.stars`); if the scene has lever balancers,
+        ``/joints`` (:func:`harmbal.joints.joints`: joint forces and toggle
+        diagnostics); if it has a ``[verify]`` table, ``/verify``
+        (:func:`harmbal.verify`).
     """
     import xarray as xr
 
@@ -78,6 +80,10 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     })
     groups = {"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
               "/stars": stars(scene, backend=backend)}
+    if scene.levers:
+        from .joints import joints
+
+        groups["/joints"] = joints(scene)
     if scene.verify is not None:
         from .balance_verify import verify
 

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import tomllib
 from dataclasses import dataclass
 
@@ -39,9 +38,10 @@ import numpy as np
 
 from .balancers import Shaft, ShaftUnbalance, shaft_loads, shaft_phasors
 from .crank_stars import order_phasors
-from .design_spec import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, Placement, signed_ratio
+from .design_spec import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio
 from .orders import BALANCED_RTOL, rotating_split
 from .scene import Scene, SceneError, scene_from_text
+from .scene_writer import angle_text, length_text, quantity_text, signed_angle_text, toml_tables, with_engine, without_tables
 from .timedomain import moment_about, unit_speed_loads
 
 #: HiGHS's default feasibility tolerances (1e-7) leave the optimum ~1e-7
@@ -173,7 +173,7 @@ def _describe(order: int, name: str) -> str:
     return f"order {order} {rotation}-rotating {what}"
 
 
-def design(scene: Scene, request: DesignRequest | None = None, *, name: str | None = None,
+def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = None, *, name: str | None = None,
            description: str | None = None) -> Design:
     """Design balancer elements order by order and write them into a scene.
 
@@ -182,8 +182,11 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     scene : Scene
         From :func:`harmbal.load_scene`; its existing balancer elements are
         part of the engine being balanced.
-    request : DesignRequest, optional
-        What to design; default the scene's ``[design]`` table.
+    request : DesignRequest or LeverDesignRequest, optional
+        What to design; default the scene's ``[design]`` table. A
+        :class:`~harmbal.design_spec.LeverDesignRequest` is passed on to
+        :func:`harmbal.lever_design.design_lever`, which returns a
+        :class:`~harmbal.lever_design.LeverDesign`.
     name, description : str, optional
         ``engine.name`` and ``engine.description`` of the output scene;
         default the input's.
@@ -203,6 +206,10 @@ def design(scene: Scene, request: DesignRequest | None = None, *, name: str | No
     import xarray as xr
 
     request = request or scene.design
+    if isinstance(request, LeverDesignRequest):
+        from .lever_design import design_lever
+
+        return design_lever(scene, request, name=name, description=description)
     if request is None:
         raise DesignError(f"{scene.source}: no [design] table: say which orders to balance with which elements "
                           "(docs/design.md)")
@@ -476,60 +483,6 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np
 # The output scene
 
 
-def _q(value: float, units: str) -> str:
-    return f"{float(value)!r} {units}"
-
-
-def _length(value: float) -> str:
-    return f"{value * 1e3:.15g} mm"
-
-
-def _angle(value: float) -> str:
-    """Degrees in [0, 360), with round-off next to 0 written as 0."""
-    degrees = math.degrees(float(value)) % 360.0
-    if min(degrees, 360.0 - degrees) < 1e-10:
-        degrees = 0.0
-    return f"{degrees!r} deg"
-
-
-def _signed_angle(value: float) -> str:
-    """Degrees in (−180, 180], round-off next to 0 written as 0."""
-    degrees = math.degrees(math.remainder(float(value), 2 * math.pi))
-    return f"{0.0 if abs(degrees) < 1e-10 else degrees!r} deg"
-
-
-def _inline(value) -> str:
-    """A TOML value on one line."""
-    import tomli_w
-
-    if isinstance(value, list):
-        return "[" + ", ".join(_inline(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {_inline(v)}" for k, v in value.items()) + " }"
-    return tomli_w.dumps({"v": value})[4:].strip()
-
-
-def _toml_tables(tables: dict) -> str:
-    """Top-level tables and arrays of tables, values inline, arrays of tables
-    inside them as [[parent.child]] blocks."""
-    lines = []
-
-    def block(header: str, path: str, table: dict) -> None:
-        lines.append(header)
-        nested = {k: v for k, v in table.items() if isinstance(v, list) and v and isinstance(v[0], dict)}
-        lines.extend(f"{k} = {_inline(v)}" for k, v in table.items() if k not in nested)
-        for key, entries in nested.items():
-            for entry in entries:
-                lines.append("")
-                block(f"[[{path}.{key}]]", f"{path}.{key}", entry)
-
-    for key, value in tables.items():
-        for entry in value if isinstance(value, list) else [value]:
-            lines.append("")
-            block(f"[[{key}]]" if isinstance(value, list) else f"[{key}]", key, entry)
-    return "\n".join(lines) + "\n"
-
-
 def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[dict, list[str]]:
     """The designed elements as scene tables, and comment lines with rounded
     values for the drawing office. Unbalances below ``negligible`` [kg m]
@@ -538,7 +491,7 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
     notes = []
 
     def unbalance(p: complex, x: float) -> dict:
-        return {"unbalance": _q(abs(p), "kg m"), "angle": _angle(np.angle(p)), "axial_position": _length(x)}
+        return {"unbalance": quantity_text(abs(p), "kg m"), "angle": angle_text(np.angle(p)), "axial_position": length_text(x)}
 
     def note(label: str, p: complex, where: str) -> None:
         notes.append(f"{label}: {abs(p) * 1e3:.5g} kg mm at {math.degrees(np.angle(p)) % 360:.2f}° {where}")
@@ -559,9 +512,9 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
             phase = float(np.angle(plus / minus)) / 2
             angle = float(np.angle(minus)) + phase
             tables["lanchester_pair"].append({
-                "label": c.label, "order": c.ratio, "unbalance": _q((abs(plus) + abs(minus)) / 2, "kg m"),
-                "angle": _angle(angle), "phase": _signed_angle(phase), "axial_position": _length(c.planes[0]),
-                "heights": [_length(h) for h in c.heights], "lateral": [_length(y) for y in c.lateral]})
+                "label": c.label, "order": c.ratio, "unbalance": quantity_text((abs(plus) + abs(minus)) / 2, "kg m"),
+                "angle": angle_text(angle), "phase": signed_angle_text(phase), "axial_position": length_text(c.planes[0]),
+                "heights": [length_text(h) for h in c.heights], "lateral": [length_text(y) for y in c.lateral]})
             notes.append(f"{c.label} (±{c.ratio}×): {abs(plus) * 1e3:.5g} kg mm per shaft, standing vector along "
                          f"{math.degrees(angle) % 360:.2f}°, phasing {round(math.degrees(phase), 2) + 0.0:.2f}°")
         else:
@@ -578,7 +531,7 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
                          f"at θ = 0, x = {x * 1e3:.6g} mm")
                 if parts:
                     tables["balance_shaft"].append({"label": label, "ratio": ratio,
-                                                    "axis_position": [_length(y), _length(z)],
+                                                    "axis_position": [length_text(y), length_text(z)],
                                                     "unbalance": [unbalance(p, x) for p, x in parts]})
     return {k: v for k, v in tables.items() if v}, notes
 
@@ -591,25 +544,10 @@ def _verify_toml(scene: Scene, request: DesignRequest, predicted) -> dict:
         for name, group in COMPONENTS:
             if group in request.cancel:
                 p = predicted[name][k] * w2
-                row[name] = [_q(abs(p), "N" if group == "force" else "N m"), _angle(np.angle(p))]
+                row[name] = [quantity_text(abs(p), "N" if group == "force" else "N m"), angle_text(np.angle(p))]
         rows.append(row)
     return {"orders": list(request.orders), "cancel": list(request.cancel),
             "speed": f"{scene.speeds[0] * 30 / math.pi:.15g} rpm", "predicted": rows}
-
-
-_HEADER = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_\-.\" ]+?)\s*\]\]?\s*(#.*)?$")
-
-
-def _without_tables(text: str, names: set[str]) -> str:
-    """The TOML text without the tables (and their sub-tables) ``names``."""
-    out, skipping = [], False
-    for line in text.splitlines():
-        match = _HEADER.match(line)
-        if match:
-            skipping = match.group(1).split(".")[0].strip() in names
-        if not skipping:
-            out.append(line)
-    return "\n".join(out).rstrip() + "\n"
 
 
 def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine: dict[str, str | None],
@@ -635,10 +573,8 @@ def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine:
               f"objective {request.objective}):"] + [f"#   {n}" for n in notes]
     top = [f"# {expected['engine'].get('name', scene.name)}: {scene.source} with balancer elements designed by "
            f"'harmbal design' (see the block before [verify]).", "#"]
-    body = _without_tables(scene.source_text, {"design", "verify"})
-    for key, value in engine.items():  # the first 'key = "..."' line is [engine]'s: [engine] is required first
-        body = re.sub(rf'(?m)^(\s*{key}\s*=\s*)"[^"\n]*"', lambda m: m.group(1) + _inline(value), body, count=1)
-    text = "\n".join(top) + "\n" + body + "\n" + "\n".join(header) + "\n" + _toml_tables(addition)
+    body = with_engine(without_tables(scene.source_text, {"design", "verify"}), engine)
+    text = "\n".join(top) + "\n" + body + "\n" + "\n".join(header) + "\n" + toml_tables(addition)
     try:
         if tomllib.loads(text) == expected:
             return text

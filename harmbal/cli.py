@@ -104,6 +104,16 @@ def _run(args) -> None:
 
         print()
         print(verify_table(tree["verify"].ds))
+    if "joints" in tree.children:
+        import dataclasses
+
+        from .crank_stars import stars
+        from .tables import joints_table, lever_orders_table
+
+        print()
+        print(lever_orders_table(tree["stars"].ds, stars(dataclasses.replace(scene, levers=()))))
+        print()
+        print(joints_table(tree["joints"].ds))
     if args.output is not None:
         save(tree, args.output)
         print(f"\nwrote {args.output}")
@@ -141,7 +151,8 @@ def _share(text: str) -> float:
 def _design(args) -> None:
     from .balance_design import DesignError, design
     from .balance_verify import verify
-    from .tables import design_table, verify_table
+    from .lever_design import LeverDesign
+    from .tables import design_table, lever_design_table, verify_table
 
     if args.output.suffix.lower() != ".toml":
         raise _BadInput(f"{args.output}: the design is written as a scene file (.toml)")
@@ -154,6 +165,12 @@ def _design(args) -> None:
         result = design(scene, name=args.name)
     except DesignError as exc:
         raise _BadInput(str(exc)) from None
+    if isinstance(result, LeverDesign):
+        print(lever_design_table(result))
+        if not result.verified:
+            raise _Disagreement("the exact model does not confirm the design; nothing written")
+        _write_scene(args.output, result.text)
+        return
     print(design_table(result))
     check = verify(result.scene)
     print()
@@ -163,11 +180,15 @@ def _design(args) -> None:
                             "the design anyway)")
     if check.attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the design; nothing written")
+    _write_scene(args.output, result.text)
+
+
+def _write_scene(path: Path, text: str) -> None:
     from .files import atomic_path
 
-    with atomic_path(args.output) as tmp:
-        tmp.write_text(result.text, encoding="utf-8")
-    print(f"\nwrote {args.output}")
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    print(f"\nwrote {path}")
 
 
 def _verify(args) -> None:
@@ -199,8 +220,17 @@ def _verify(args) -> None:
 def _load(path: Path):
     from .scene import SceneError, load_scene
 
+    import warnings
+
+    from .linkage import LinkageWarning
+
     try:
-        return load_scene(path)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", LinkageWarning)
+            scene = load_scene(path)
+        for warning in caught:
+            print(f"harmbal: warning: {warning.message}", file=sys.stderr)
+        return scene
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except OSError as exc:

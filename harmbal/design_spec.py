@@ -163,3 +163,38 @@ class VerifyRequest:
     speed: float | None = None
     predicted: tuple[tuple[int, str, complex], ...] = ()
     tolerance: float = 0.0
+
+
+#: Objectives of a lever-balancer design: the summed peak-to-peak values or
+#: the summed peaks |·| over the revolution of the chosen signals (linear
+#: programmes), or a weighted sum of squared order amplitudes (a quadratic
+#: programme).
+LEVER_OBJECTIVES = ("peak_to_peak", "peak", "orders")
+
+#: Signals a lever design can judge: those linear in the balance weight's
+#: (m, m·x_G, m·y_G). The moment about the crank axis is not (it holds
+#: m·|r_G|² and the moment of inertia).
+LEVER_SIGNALS = ("force_y", "force_z", "moment_y", "moment_z")
+
+
+@dataclass(frozen=True)
+class LeverDesignRequest:
+    """Find the balance weight (the coupler's mass m and CG (x_G, y_G) in its
+    local frame) of the lever balancer ``lever`` that minimises
+    ``objective`` (of :data:`LEVER_OBJECTIVES`) over ``signals`` (of
+    :data:`LEVER_SIGNALS`).
+
+    ``orders`` and ``weights`` define the "orders" objective
+    Σ_k w_k·Σ_signals |C_k|² (weights default to 1). ``mass`` [kg], ``cg_x``
+    and ``cg_y`` [m] are optional (low, high) bounds; the CG bounds describe
+    the weight's envelope in its local frame.
+    """
+
+    lever: str | None = None
+    objective: str = "peak_to_peak"
+    signals: tuple[str, ...] = ("force_y", "force_z")
+    orders: tuple[int, ...] = (1,)
+    weights: tuple[float, ...] = ()
+    mass: tuple[float, float] | None = None
+    cg_x: tuple[float, float] | None = None
+    cg_y: tuple[float, float] | None = None

@@ -19,7 +19,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from .balancers import PRODUCT_CONVENTIONS, Shaft, ShaftUnbalance, couple_from_moment, couple_from_products
-from .design_spec import CANCEL, COMPONENTS, OBJECTIVES, PEAK_SIGNALS, Candidate, DesignRequest, VerifyRequest
+from .design_spec import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate,
+                          DesignRequest, LeverDesignRequest, VerifyRequest)
+from .linkage import ASSEMBLY_MODES, TRANSMISSION_WARNING, LeverBalancer, LinkageWarning, LinkBody, closure, closure_message
 from .units import QuantityError, to_si
 
 EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
@@ -171,6 +173,8 @@ class Scene:
     #: Balance shafts, Lanchester pairs (two shafts each) and the crankshaft's
     #: CAD mass data (a shaft at ratio 1 on the crank axis).
     shafts: tuple[Shaft, ...] = ()
+    #: Lever (linkage) balancers: four-bars driven by a second crank pin.
+    levers: tuple[LeverBalancer, ...] = ()
     model: Model = field(default_factory=Model)
     sampling: Sampling = field(default_factory=Sampling)
     description: str = ""
@@ -178,7 +182,7 @@ class Scene:
     firing_order: tuple[int, ...] | None = None
     #: What ``harmbal design`` should design ([design]) and what
     #: ``harmbal verify`` checks ([verify]), if the scene says.
-    design: DesignRequest | None = None
+    design: DesignRequest | LeverDesignRequest | None = None
     verify: VerifyRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
@@ -248,13 +252,17 @@ def _read(data: Mapping, text: str, source: str) -> Scene:
     scene = reader.scene(data, text)
     if reader.problems:
         raise SceneError(reader.problems)
+    import warnings
+
+    for message in reader.warnings:
+        warnings.warn(message, LinkageWarning, stacklevel=3)
     return scene
 
 
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
-    "lanchester_pair", "design", "verify",
+    "lanchester_pair", "lever_balancer", "design", "verify",
 }
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
@@ -270,9 +278,13 @@ _SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple
 _CRANKSHAFT_KEYS = {"mass", "cg_offset", "axial_position", "products_of_inertia"}
 _LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "phase", "axial_position", "heights",
                     "lateral"}
+_LEVER_KEYS = {"label", "axial_position", "pin_radius", "pin_angle", "pivot", "rocker_length", "coupler_length",
+               "assembly", "rocker", "coupler"}
+_LINK_KEYS = {"mass", "cg", "inertia"}
 _COUNTERWEIGHT_KEYS = {"label", "unbalance", "mass", "radius", "angle", "axial_position"}
 _DESIGN_KEYS = {"orders", "cancel", "objective", "peak", "counterweights", "balance_shaft", "moment_shaft",
-                "lanchester_pair"}
+                "lanchester_pair", "lever"}
+_LEVER_DESIGN_KEYS = {"label", "signals", "weights", "mass", "cg_x", "cg_y"}
 _CANDIDATE_KEYS = {
     "counterweights": {"label", "planes", "balance_factor", "max_unbalance"},
     "balance_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
@@ -289,6 +301,7 @@ class _Reader:
     def __init__(self, source: str):
         self.source = source
         self.problems: list[Problem] = []
+        self.warnings: list[str] = []
 
     # -- primitives --------------------------------------------------------
 
@@ -409,7 +422,8 @@ class _Reader:
         shafts = (self.crankshaft(data, sense) + self.counterweights(data.get("counterweight", []))
                   + self.balance_shafts(data.get("balance_shaft", []), sense)
                   + self.lanchester_pairs(data.get("lanchester_pair", [])))
-        labels = [s.label for s in shafts]
+        levers = self.lever_balancers(data.get("lever_balancer", []), sense)
+        labels = [s.label for s in shafts] + [lever.label for lever in levers]
         for label in sorted({x for x in labels if labels.count(x) > 1}):
             self.fail("balancer elements", label, "two balancer elements have this label; labels must be unique")
         requests = {}
@@ -419,7 +433,7 @@ class _Reader:
         design, verify = requests["design"], requests["verify"]
         return Scene(name=name, description=description, cycle=cycle, rotation=rotation, speeds=speeds,
                      reference_point=reference, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts,
-                     model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
+                     levers=levers, model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
                      source=self.source, source_text=text)
 
     # -- design and verification requests -----------------------------------
@@ -504,7 +518,9 @@ class _Reader:
             self.fail(_join(path, "ratio"), ratio, f"|ratio| must not exceed sampling.max_order = {max_order}")
         return Candidate(kind, label, ratio, planes, y=y, z=z, max_unbalance=bound)
 
-    def design(self, raw: dict, max_order: int) -> DesignRequest:
+    def design(self, raw: dict, max_order: int) -> DesignRequest | LeverDesignRequest:
+        if "lever" in raw:
+            return self.lever_design(raw, max_order)
         orders = self.orders(raw, "design", max_order)
         cancel = self.names(raw, "cancel", "design", CANCEL, ("force", "moment"))
         objective = self.choice(raw, "objective", "design", OBJECTIVES, "least_squares")
@@ -520,6 +536,40 @@ class _Reader:
         for label in sorted({x for x in labels if labels.count(x) > 1}):
             self.fail("design", label, "two candidate elements have this label; labels must be unique")
         return DesignRequest(orders, tuple(candidates), cancel, objective, peak)
+
+    def lever_design(self, raw: dict, max_order: int) -> LeverDesignRequest:
+        """[design] with a [design.lever] table: the optimal balance weight."""
+        others = sorted(set(raw) & (set(_CANDIDATE_KEYS) | {"cancel", "peak"}))
+        if others:
+            self.fail("design", others, "a lever design optimises the balance weight alone; design other elements "
+                      "in a separate [design] run")
+        objective = self.choice(raw, "objective", "design", LEVER_OBJECTIVES, "peak_to_peak")
+        orders = self.orders(raw, "design", max_order) if "orders" in raw else (1,)
+        if "orders" in raw and objective != "orders":
+            self.fail("design.orders", raw["orders"], 'only used with objective = "orders"')
+        lever = self.table(raw, "lever", "design.lever", _LEVER_DESIGN_KEYS)
+        label = self.string(lever, "label", "design.lever", None) if "label" in lever else None
+        signals = self.names(lever, "signals", "design.lever", LEVER_SIGNALS, ("force_y", "force_z"))
+        weights: tuple[float, ...] = ()
+        if "weights" in lever:
+            raw_weights = lever["weights"]
+            if (objective != "orders" or not isinstance(raw_weights, list) or len(raw_weights) != len(orders)
+                    or any(isinstance(w, bool) or not isinstance(w, (int, float)) or not w >= 0 for w in raw_weights)):
+                self.fail("design.lever.weights", raw_weights, "one non-negative number per order of design.orders, "
+                          'with objective = "orders"')
+            else:
+                weights = tuple(float(w) for w in raw_weights)
+        bounds = {}
+        for key, dimension in (("mass", "mass"), ("cg_x", "length"), ("cg_y", "length")):
+            if key in lever:
+                low, high = self.quantity_list(lever, key, "design.lever", dimension, 2, _MISSING)
+                if math.isfinite(low) and math.isfinite(high) and not low <= high:
+                    self.fail(f"design.lever.{key}", lever[key], "must be [low, high] with low <= high")
+                if key == "mass" and math.isfinite(low) and low < 0:
+                    self.fail("design.lever.mass", lever[key], "masses must not be negative")
+                bounds[key] = (low, high)
+        return LeverDesignRequest(label, objective, signals, orders, weights, bounds.get("mass"), bounds.get("cg_x"),
+                                  bounds.get("cg_y"))
 
     def verify(self, raw: dict, max_order: int) -> VerifyRequest:
         orders = self.orders(raw, "verify", max_order)
@@ -659,6 +709,48 @@ class _Reader:
                 shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z,
                                     (ShaftUnbalance(u, angle + sign * phase, x),)))
         return tuple(shafts)
+
+    def lever_balancers(self, raw: Any, sense: int) -> tuple[LeverBalancer, ...]:
+        """Four-bar lever balancers, refused unless the loop closes at every
+        crank angle (with the link lengths and the failing angle named)."""
+        levers = []
+        for path, entry in self.array(raw, "lever_balancer"):
+            self.unknown(entry, path, _LEVER_KEYS)
+            label = self.string(entry, "label", path, f"lever balancer {len(levers) + 1}")
+            x = self.quantity(entry, "axial_position", path, "length", default=0.0)
+            radius = self.quantity(entry, "pin_radius", path, "length", positive=True)
+            angle = self.quantity(entry, "pin_angle", path, "angle")
+            pivot = self.quantity_list(entry, "pivot", path, "length", 2, _MISSING)
+            rocker_length = self.quantity(entry, "rocker_length", path, "length", positive=True)
+            coupler_length = self.quantity(entry, "coupler_length", path, "length", positive=True)
+            assembly = self.choice(entry, "assembly", path, tuple(ASSEMBLY_MODES), _MISSING)
+            if assembly is _MISSING:
+                assembly = "ahead"
+            bodies = {}
+            for name in ("rocker", "coupler"):
+                where = _join(path, name)
+                table = self.table(entry, name, where, _LINK_KEYS, required=True)
+                bodies[name] = LinkBody(self.quantity(table, "mass", where, "mass", nonnegative=True),
+                                        self.quantity_list(table, "cg", where, "length", 2, [0, 0]),
+                                        self.quantity(table, "inertia", where, "inertia", nonnegative=True))
+            lever = LeverBalancer(label, x, radius, angle, pivot, rocker_length, coupler_length, assembly,
+                                  bodies["rocker"], bodies["coupler"])
+            values = (x, radius, angle, *pivot, rocker_length, coupler_length)
+            if all(math.isfinite(v) for v in values) and radius > 0 and rocker_length > 0 and coupler_length > 0:
+                check = closure(lever, sense)
+                if check.failure is not None:
+                    self.fail(path, {"pivot": entry.get("pivot"), "pin_radius": entry.get("pin_radius"),
+                                     "rocker_length": entry.get("rocker_length"),
+                                     "coupler_length": entry.get("coupler_length")}, closure_message(lever, check))
+                elif check.min_transmission_angle < TRANSMISSION_WARNING:
+                    self.warnings.append(
+                        f"{self.source}: {path} ({label}): minimum transmission angle "
+                        f"{math.degrees(check.min_transmission_angle):.3g}° at θ = "
+                        f"{math.degrees(check.min_transmission_theta):.6g}° (below "
+                        f"{math.degrees(TRANSMISSION_WARNING):.0f}°): close to the toggle position, joint forces "
+                        "grow like 1/sin γ")
+            levers.append(lever)
+        return tuple(levers)
 
     def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:
         """The firing order as cylinder indices, checked against the geometry."""

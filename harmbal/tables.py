@@ -220,3 +220,74 @@ def verify_table(check) -> str:
                     lines.append(f"{k:>5}  {name + ' ' + axis + ' [' + units + ']':<15}{was:>14.5g}{now:>14.5g}"
                                  f"{share:>9.1f}%")
     return "\n".join(lines)
+
+
+def joints_table(joints) -> str:
+    """Peak joint forces and the toggle diagnostics, from :func:`harmbal.joints.joints`."""
+    lines = [f"{joints.attrs['engine']}: joint forces over the revolution ({joints.attrs['samples_per_rev']} "
+             "samples/rev; constant speed, no gas forces)"]
+    for label in joints["lever"].values if "lever" in joints.dims else []:
+        sel = joints.sel(lever=label)
+        lines.append(f"Lever balancer {label}: minimum transmission angle "
+                     f"{np.degrees(float(sel['min_transmission_angle'])):.4g}° at θ = "
+                     f"{np.degrees(float(sel['min_transmission_theta'])):.5g}°; closure margin min sin²γ = "
+                     f"{float(sel['discriminant_margin']):.4g}")
+    speeds = np.atleast_1d(joints["rpm"].values)
+    for s, rpm in enumerate(speeds):
+        sel = joints.isel(speed=s) if "speed" in joints.dims else joints
+        lines += ["", f"Speed {rpm:.6g} rpm", f"{'joint':<10}{'peak [N]':>12}{'at θ':>9}  acting"]
+        for j, name in enumerate(sel["joint"].values):
+            lines.append(f"{str(name):<10}{float(sel['joint_force_peak'].values[j]):>12.5g}"
+                         f"{np.degrees(float(sel['joint_force_peak_angle'].values[j])):>8.1f}°  "
+                         f"{sel['joint_description'].values[j]}")
+        torque = sel["drive_torque"].values
+        lines.append(f"{'drive torque':<10}{np.abs(torque).max():>12.5g} N m peak (inertia torque)")
+    return "\n".join(lines)
+
+
+def lever_orders_table(with_lever, without_lever, max_order: int = 4) -> str:
+    """The free force per order with and without the lever balancers (from
+    two :func:`harmbal.stars` Datasets): what the lever trades between orders."""
+    sel_with = with_lever.isel(speed=0) if "speed" in with_lever.dims else with_lever
+    sel_without = without_lever.isel(speed=0) if "speed" in without_lever.dims else without_lever
+    rpm = float(np.atleast_1d(sel_with["rpm"].values)[0])
+    lines = [f"Free force per order without and with the lever balancers at {rpm:.6g} rpm "
+             "(co- / counter-rotating peak [N]):",
+             f"{'order':>5}{'without: co':>14}{'counter':>11}{'with: co':>14}{'counter':>11}"]
+    for k in range(1, min(max_order, sel_with.sizes["order"] - 1) + 1):
+        was = np.abs(sel_without["force_rotating"].sel(order=k).values)
+        now = np.abs(sel_with["force_rotating"].sel(order=k).values)
+        lines.append(f"{k:>5}{was[0]:>14.5g}{was[1]:>11.5g}{now[0]:>14.5g}{now[1]:>11.5g}")
+    return "\n".join(lines)
+
+
+def lever_design_table(result) -> str:
+    """The optimal balance weight against the start, the criterion per signal
+    and the force per order, and the exact model's check, from
+    :func:`harmbal.lever_design.design_lever`."""
+    request, b = result.request, result.breakdown
+    units = [str(u) for u in b["signal_units"].values]
+    squared = request.objective == "orders"
+    unit = units[0] + ("²" if squared else "")
+    rpm = result.speed * 30 / np.pi
+    lines = [f"{result.scene.name}: balance weight of lever balancer {result.lever!r}, objective "
+             f"{request.objective} of {', '.join(request.signals)} at {rpm:.6g} rpm ({result.method}, "
+             f"{result.seconds * 1e3:.3g} ms" + (f", {result.cycles} cycles, {result.evaluations} evaluations"
+                                                  if result.method == "compass" else "") + ")",
+             "", f"{'':<10}{'mass [kg]':>12}{'x_G [mm]':>12}{'y_G [mm]':>12}{'criterion [' + unit + ']':>20}"]
+    for label, (m, x, y), value in (("start", result.start, result.criterion_start),
+                                    ("optimum", result.weight, result.criterion)):
+        lines.append(f"{label:<10}{m:>12.6g}{x * 1e3:>12.6g}{y * 1e3:>12.6g}{value:>20.8g}")
+    lines += ["", f"{'signal':<12}{'start':>14}{'optimum':>14}"]
+    for j, name in enumerate(b["signal"].values):
+        lines.append(f"{str(name) + ' [' + units[j] + ('²' if squared else '') + ']':<12}"
+                     f"{float(b['criterion'].values[0, j]):>14.6g}{float(b['criterion'].values[1, j]):>14.6g}")
+    lines += ["", f"{'order':>5}{'start: co [N]':>16}{'counter [N]':>13}{'optimum: co [N]':>18}{'counter [N]':>13}"]
+    for k in b["order"].values[1:]:
+        was, now = b["force"].values[0, k], b["force"].values[1, k]
+        lines.append(f"{k:>5}{was[0]:>16.5g}{was[1]:>13.5g}{now[0]:>18.5g}{now[1]:>13.5g}")
+    state = "PASSED" if result.verified else "FAILED"
+    lines += ["", f"Exact model of the output scene: criterion {result.exact_criterion:.10g} {unit} "
+              f"(|Δ| {abs(result.exact_criterion - result.criterion):.2g}, tolerance {result.tolerance:.2g}): {state}"]
+    lines += [f"! {m}" for m in result.messages]
+    return "\n".join(lines)

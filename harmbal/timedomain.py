@@ -16,6 +16,8 @@ from . import loads
 from .balancers import shaft_loads
 from ._version import __version__
 from .kinematics import crank_pin, decay_rate, slider_crank
+from .linkage import decay_rate as linkage_decay_rate
+from .linkage import lever_loads
 from .scene import EFFECTS, Scene
 
 AXES = ("x", "y", "z")
@@ -31,7 +33,7 @@ CONVENTIONS = (
 @dataclass(frozen=True)
 class UnitSpeedLoads:
     """Loads at ω = 1 rad/s about the origin: per cylinder (cylinder, axis,
-    angle) and from crankshaft unbalances and balance shafts (axis, angle)."""
+    angle) and from crankshaft unbalances and balancer elements (axis, angle)."""
 
     theta: np.ndarray
     force_cylinder: np.ndarray
@@ -57,6 +59,8 @@ def choose_samples(scene: Scene) -> int:
     cyls = scene.cylinders
     rho = float(np.max(decay_rate(np.array([c.crank_radius for c in cyls]), np.array([c.rod_length for c in cyls]),
                                   np.array([c.offset for c in cyls]))))
+    if "balancers" in scene.model.effects:
+        rho = max([rho] + [linkage_decay_rate(lever, scene.sense) for lever in scene.levers])
     n = 4 * k
     if rho > 0:
         m = k + 1
@@ -172,6 +176,9 @@ def unit_speed_loads(scene: Scene, samples_per_rev: int) -> UnitSpeedLoads:
             crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
     if "balancers" in scene.model.effects and scene.shafts:
         f, m = shaft_loads(scene.shafts, theta, sense)
+        crank_force, crank_moment = crank_force + f, crank_moment + m
+    if "balancers" in scene.model.effects and scene.levers:
+        f, m = lever_loads(scene.levers, theta, sense, "mass_torque" in scene.model.effects)
         crank_force, crank_moment = crank_force + f, crank_moment + m
     return UnitSpeedLoads(theta, force, moment, crank_force, crank_moment)
 

@@ -64,7 +64,7 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         (:func:`harmbal.simulate`), ``/orders``
         (:func:`harmbal.order_spectrum`), ``/stars``
         (:func:`harmbal.stars`); if the scene has lever balancers,
-        ``/joints`` (:func:`harmbal.joints.joints`: joint forces and toggle
+        ``/joints`` (:func:`harmbal.joints`: joint forces and toggle
         diagnostics); if it has a ``[verify]`` table, ``/verify``
         (:func:`harmbal.verify`).
     """
@@ -81,7 +81,7 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     groups = {"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
               "/stars": stars(scene, backend=backend)}
     if scene.levers:
-        from .joints import joints
+        from .mechanism import joints
 
         groups["/joints"] = joints(scene)
     if scene.verify is not None:

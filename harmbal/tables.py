@@ -223,7 +223,7 @@ def verify_table(check) -> str:
 
 
 def joints_table(joints) -> str:
-    """Peak joint forces and the toggle diagnostics, from :func:`harmbal.joints.joints`."""
+    """Peak joint forces and the toggle diagnostics, from :func:`harmbal.joints`."""
     lines = [f"{joints.attrs['engine']}: joint forces over the revolution ({joints.attrs['samples_per_rev']} "
              "samples/rev; constant speed, no gas forces)"]
     for label in joints["lever"].values if "lever" in joints.dims else []:

@@ -58,12 +58,16 @@ def _parser() -> argparse.ArgumentParser:
                     "elements that cancel the chosen free force and moment phasors. Prints the design and its "
                     "verification by the exact model, and writes OUT as a scene with the elements and a [verify] "
                     "table. If a target cannot be cancelled it says why and writes nothing (exit 1) unless "
-                    "--partial is given.")
+                    "--partial is given. With a [design.lever] table it finds the lever balancer's optimal "
+                    "balance weight (linear programme) and checks it by the exact model.")
     design.add_argument("scene", type=Path, help="scene file (TOML) with a [design] table")
     design.add_argument("-o", "--output", type=Path, required=True, help="scene file to write (TOML)")
     design.add_argument("--name", help="engine.name of the output scene (default: the input's)")
     design.add_argument("--partial", action="store_true",
                         help="write the design even if some targets cannot be cancelled")
+    design.add_argument("--method", choices=("exact", "compass"), default="exact",
+                        help="lever balancers: the exact linear programme (default) or, for comparison, the "
+                             "source thesis's compass search")
     design.set_defaults(handler=_design)
 
     check = commands.add_parser(
@@ -151,7 +155,8 @@ def _share(text: str) -> float:
 def _design(args) -> None:
     from .balance_design import DesignError, design
     from .balance_verify import verify
-    from .lever_design import LeverDesign
+    from .design_spec import LeverDesignRequest
+    from .lever_design import LeverDesign, design_lever
     from .tables import design_table, lever_design_table, verify_table
 
     if args.output.suffix.lower() != ".toml":
@@ -162,7 +167,12 @@ def _design(args) -> None:
         raise _BadInput(f"{args.output}: would overwrite the input scene; choose another file")
     scene = _load(args.scene)
     try:
-        result = design(scene, name=args.name)
+        if isinstance(scene.design, LeverDesignRequest):
+            result = design_lever(scene, method=args.method, name=args.name)
+        elif args.method != "exact":
+            raise _BadInput(f"--method {args.method}: only for lever balancers ([design.lever])")
+        else:
+            result = design(scene, name=args.name)
     except DesignError as exc:
         raise _BadInput(str(exc)) from None
     if isinstance(result, LeverDesign):

@@ -192,20 +192,37 @@ def criterion(values: np.ndarray, objective: str, orders=(1,), weights=()) -> fl
     raise ValueError(f"unknown objective {objective!r}; choose one of {', '.join(LEVER_OBJECTIVES)}")
 
 
-def _constraints(request: LeverDesignRequest) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds on (m, x_G, y_G) as G·p ≤ h (m ≥ 0 always)."""
-    rows, rhs = [[-1.0, 0.0, 0.0]], [-(request.mass[0] if request.mass else 0.0)]
-    if request.mass:
+def _envelope(request: LeverDesignRequest, length: float) -> dict[str, tuple[float, float]]:
+    """Bounds on m, x_G and y_G: the request's, and by default m ≥ 0 and a
+    CG within one coupler length ``length`` of the link B–C (x_G in [−b, 2b],
+    y_G in [−b, b]). A CG bound is needed: without one, m → 0 with a finite
+    m·x_G (a weight of no mass infinitely far away) could pass for a design."""
+    return {"mass": request.mass or (0.0, math.inf), "cg_x": request.cg_x or (-length, 2 * length),
+            "cg_y": request.cg_y or (-length, length)}
+
+
+def _constraints(bounds: dict[str, tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """The bounds as G·p ≤ h in p = (m, m·x_G, m·y_G)."""
+    low_mass, high_mass = bounds["mass"]
+    rows, rhs = [[-1.0, 0.0, 0.0]], [-low_mass]
+    if math.isfinite(high_mass):
         rows.append([1.0, 0.0, 0.0])
-        rhs.append(request.mass[1])
-    for j, bound in ((1, request.cg_x), (2, request.cg_y)):
-        if bound:
-            low, high = np.zeros(3), np.zeros(3)
-            low[0], low[j] = bound[0], -1.0  # x_lo·m − m·x_G ≤ 0
-            high[0], high[j] = -bound[1], 1.0  # m·x_G − x_hi·m ≤ 0
-            rows += [low, high]
-            rhs += [0.0, 0.0]
+        rhs.append(high_mass)
+    for j, key in ((1, "cg_x"), (2, "cg_y")):
+        low, high = np.zeros(3), np.zeros(3)
+        low[0], low[j] = bounds[key][0], -1.0  # x_lo·m − m·x_G ≤ 0
+        high[0], high[j] = -bounds[key][1], 1.0  # m·x_G − x_hi·m ≤ 0
+        rows += [low, high]
+        rhs += [0.0, 0.0]
     return np.array(rows, dtype=float), np.array(rhs, dtype=float)
+
+
+def _check_bounds(bounds: dict[str, tuple[float, float]]) -> None:
+    for key, (low, high) in bounds.items():
+        if not low <= high:
+            raise DesignError(f"design.lever.{key} = [{low:g}, {high:g}]: the lower bound exceeds the upper one")
+    if bounds["mass"][0] < 0:
+        raise DesignError(f"design.lever.mass: a lower bound of {bounds['mass'][0]:g} kg; masses are not negative")
 
 
 def _solve_lp(problem: LeverProblem, objective: str, g: np.ndarray, h: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -407,7 +424,9 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     def judge(p) -> float:
         return criterion(problem.values(p) * w2, request.objective, request.orders, request.weights)
 
-    g, h = _constraints(request)
+    bounds = _envelope(request, length)
+    _check_bounds(bounds)
+    g, h = _constraints(bounds)
     evaluations = cycles = 0
     clock = time.perf_counter()
     if method == "exact":
@@ -435,22 +454,41 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     breakdown = _breakdown(scene, problem, request, p_start, p, w2, (value_start, value))
 
     designed = _with_weight(lever, weight)
-    text = _scene_text(scene, index, designed, request, used, (value_start, value), name, description)
-    out = scene_from_text(text, f"{scene.source} (designed)")
-    # The judge: the full time-domain model of the output scene, independent of the affine map.
-    time_ds = simulate(out, samples_per_rev=len(problem.theta))
-    exact_values = _signals(time_ds.force.values, time_ds.moment.values, request.signals)
-    if exact_values.ndim == 3:  # several speeds: judge at the first
-        exact_values = exact_values[:, 0]
-    exact = criterion(exact_values, request.objective, request.orders, request.weights)
+    levers = scene.levers[:index] + (designed,) + scene.levers[index + 1:]
+    # The judge: the full time-domain model with the new weight, independent of the affine map.
+    time_ds = simulate(replace(scene, levers=levers), samples_per_rev=len(problem.theta))
+    if "speed" in time_ds.dims:
+        time_ds = time_ds.isel(speed=0)
+    exact = criterion(_signals(time_ds.force.values, time_ds.moment.values, request.signals), request.objective,
+                      request.orders, request.weights)
     scale_value = float(np.abs(problem.rest).max() + np.abs(problem.basis @ p).max()) * w2
     tolerance = 1e-9 * (scale_value**2 if request.objective == "orders" else scale_value) * len(request.signals)
+    text = _scene_text(scene, index, designed, request, used, (value_start, value), name, description)
+    out = scene_from_text(text, f"{scene.source} (designed)")
     messages = []
     if weight[0] == 0.0:
         messages.append("the optimum is no weight at all: the lever balancer makes the criterion worse")
+    if not _same(out, scene, levers):
+        messages.append("the scene was changed in Python after it was read: the output text is its file's with the "
+                        "new weight, not this scene")
     return LeverDesign(request, lever.label, used, speed, start, weight, value_start, value, exact, tolerance,
                        abs(exact - value) <= tolerance, breakdown, seconds, evaluations, cycles, tuple(messages),
                        text, out)
+
+
+def _same(out: Scene, scene: Scene, levers: tuple[LeverBalancer, ...]) -> bool:
+    """Whether the output scene read from its text is ``scene`` with ``levers``
+    (weights to the 1e-13 that writing decimals costs; names and the
+    [design]/[verify] tables aside)."""
+    def engine(s: Scene) -> Scene:
+        return replace(s, levers=(), name="", description="", design=None, verify=None, source="", source_text="")
+
+    def weight(lever: LeverBalancer) -> np.ndarray:
+        return np.array([lever.coupler.mass, *lever.coupler.cg])
+
+    return (engine(out) == engine(scene) and len(out.levers) == len(levers)
+            and all(a == replace(b, coupler=replace(b.coupler, mass=a.coupler.mass, cg=a.coupler.cg))
+                    and np.allclose(weight(a), weight(b), rtol=1e-13, atol=1e-15) for a, b in zip(levers, out.levers)))
 
 
 def _scene_text(scene: Scene, index: int, lever: LeverBalancer, request: LeverDesignRequest, method: str,

@@ -30,6 +30,7 @@ _EXPORTS = {
     "LeverDesignRequest": "design_spec",
     "LeverDesign": "lever_design",
     "LinkageWarning": "linkage",
+    "AccuracyWarning": "timedomain",
     "analyse": "analysis",
     "save": "archive",
     "open_archive": "archive",

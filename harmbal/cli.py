@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from ._version import __version__
@@ -86,8 +87,9 @@ def _parser() -> argparse.ArgumentParser:
     check.set_defaults(handler=_verify)
 
     show = commands.add_parser(
-        "show", help="print the order table stored in an archive",
-        description="Print the free forces and moments per order from a harmbal netCDF archive.")
+        "show", help="print the tables stored in an archive",
+        description="Print the free forces and moments per order from a harmbal netCDF archive, and the "
+                    "verification and joint-force tables if the archive holds them.")
     show.add_argument("archive", type=Path, help="netCDF archive written by 'harmbal run -o'")
     show.set_defaults(handler=_show)
     return parser
@@ -230,17 +232,8 @@ def _verify(args) -> None:
 def _load(path: Path):
     from .scene import SceneError, load_scene
 
-    import warnings
-
-    from .linkage import LinkageWarning
-
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", LinkageWarning)
-            scene = load_scene(path)
-        for warning in caught:
-            print(f"harmbal: warning: {warning.message}", file=sys.stderr)
-        return scene
+        return load_scene(path)
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except OSError as exc:
@@ -291,13 +284,31 @@ def _show(args) -> None:
     if "orders" not in tree.children:
         raise _BadInput(f"{args.archive}: archive has no /orders group")
     print(order_table(tree["orders"].ds))
+    if "verify" in tree.children:
+        from .tables import verify_table
+
+        print()
+        print(verify_table(tree["verify"].ds))
+    if "joints" in tree.children:
+        from .tables import joints_table
+
+        print()
+        print(joints_table(tree["joints"].ds))
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as one line on stderr, like errors."""
+    print(f"harmbal: warning: {message}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``harmbal`` command; returns the exit code."""
     args = _parser().parse_args(argv)
     try:
-        args.handler(args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            warnings.showwarning = _show_warning
+            args.handler(args)
     except _BadInput as exc:
         for line in str(exc).splitlines():
             print(f"harmbal: error: {line}", file=sys.stderr)

@@ -43,8 +43,9 @@ import numpy as np
 ASSEMBLY_MODES = {"ahead": 1, "behind": -1}
 
 #: Below this minimum transmission angle a lever balancer gets a warning: the
-#: joint forces grow like 1/sin γ and the motion becomes sensitive to
-#: tolerances (textbooks ask for at least 40°).
+#: force at B is the links' inertia divided by a·b·sin γ, and the links'
+#: accelerations themselves grow as γ → 0, so the joint forces rise steeply and
+#: the motion becomes sensitive to tolerances (textbooks ask for at least 40°).
 TRANSMISSION_WARNING = math.radians(30.0)
 
 
@@ -133,8 +134,7 @@ def closure(lever: LeverBalancer, sense: int) -> Closure:
     def sin2(d: float) -> float:
         return ((a + b) ** 2 - d * d) * (d * d - (a - b) ** 2) / (4 * a * a * b * b)
 
-    margins = [(sin2(d_min), near_theta), (sin2(d_max), far_theta)]
-    margin, theta = min(margins)
+    margin = min(sin2(d_min), sin2(d_max))  # at the same extreme as the smallest acute γ below
     # γ from cos γ = (a² + b² − d²)/(2ab); the acute angle is the one that matters.
     gammas = []
     for d, th in ((d_min, near_theta), (d_max, far_theta)):
@@ -170,6 +170,8 @@ def decay_rate(lever: LeverBalancer, sense: int) -> float:
     """
     a, b, r = lever.rocker_length, lever.coupler_length, lever.pin_radius
     dist = abs(lever.pivot_w(sense))
+    if dist == 0:  # pivot on the crank axis: q = r² is constant, the links turn rigidly with the crank
+        return 0.0
     rho = 0.0
     for target in ((a + b) ** 2, (a - b) ** 2, 0.0):
         sigma = abs((dist * dist + r * r - target) / (2 * dist * r))

@@ -723,9 +723,12 @@ class _Reader:
             pivot = self.quantity_list(entry, "pivot", path, "length", 2, _MISSING)
             rocker_length = self.quantity(entry, "rocker_length", path, "length", positive=True)
             coupler_length = self.quantity(entry, "coupler_length", path, "length", positive=True)
-            assembly = self.choice(entry, "assembly", path, tuple(ASSEMBLY_MODES), _MISSING)
-            if assembly is _MISSING:
-                assembly = "ahead"
+            assembly = "ahead"
+            if "assembly" in entry:
+                assembly = self.choice(entry, "assembly", path, tuple(ASSEMBLY_MODES), "ahead")
+            else:
+                self.fail(_join(path, "assembly"), _MISSING, "missing: the assembly mode, \"ahead\" or \"behind\" "
+                          "(B ahead of or behind the line from the pivot A to the pin C, in the direction of rotation)")
             bodies = {}
             for name in ("rocker", "coupler"):
                 where = _join(path, name)
@@ -747,8 +750,8 @@ class _Reader:
                         f"{self.source}: {path} ({label}): minimum transmission angle "
                         f"{math.degrees(check.min_transmission_angle):.3g}° at θ = "
                         f"{math.degrees(check.min_transmission_theta):.6g}° (below "
-                        f"{math.degrees(TRANSMISSION_WARNING):.0f}°): close to the toggle position, joint forces "
-                        "grow like 1/sin γ")
+                        f"{math.degrees(TRANSMISSION_WARNING):.0f}°): close to the toggle position, where the links' "
+                        "accelerations and the joint forces grow without bound")
             levers.append(lever)
         return tuple(levers)
 

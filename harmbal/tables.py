@@ -275,14 +275,15 @@ def lever_design_table(result) -> str:
              f"{result.seconds * 1e3:.3g} ms" + (f", {result.cycles} cycles, {result.evaluations} evaluations"
                                                   if result.method == "compass" else "") + ")",
              "", f"{'':<10}{'mass [kg]':>12}{'x_G [mm]':>12}{'y_G [mm]':>12}{'criterion [' + unit + ']':>20}"]
+    found = "optimum" if result.method != "compass" else "end point"
     for label, (m, x, y), value in (("start", result.start, result.criterion_start),
-                                    ("optimum", result.weight, result.criterion)):
+                                    (found, result.weight, result.criterion)):
         lines.append(f"{label:<10}{m:>12.6g}{x * 1e3:>12.6g}{y * 1e3:>12.6g}{value:>20.8g}")
-    lines += ["", f"{'signal':<12}{'start':>14}{'optimum':>14}"]
+    lines += ["", f"{'signal':<12}{'start':>14}{found:>14}"]
     for j, name in enumerate(b["signal"].values):
         lines.append(f"{str(name) + ' [' + units[j] + ('²' if squared else '') + ']':<12}"
                      f"{float(b['criterion'].values[0, j]):>14.6g}{float(b['criterion'].values[1, j]):>14.6g}")
-    lines += ["", f"{'order':>5}{'start: co [N]':>16}{'counter [N]':>13}{'optimum: co [N]':>18}{'counter [N]':>13}"]
+    lines += ["", f"{'order':>5}{'start: co [N]':>16}{'counter [N]':>13}{found + ': co [N]':>18}{'counter [N]':>13}"]
     for k in b["order"].values[1:]:
         was, now = b["force"].values[0, k], b["force"].values[1, k]
         lines.append(f"{k:>5}{was[0]:>16.5g}{was[1]:>13.5g}{now[0]:>18.5g}{now[1]:>13.5g}")

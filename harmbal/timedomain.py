@@ -42,6 +42,14 @@ class UnitSpeedLoads:
     moment_crankshaft: np.ndarray
 
 
+#: Most samples per revolution the accuracy setting chooses.
+MAX_SAMPLES = 1 << 16
+
+
+class AccuracyWarning(UserWarning):
+    """The requested accuracy needs more samples than harmbal will choose."""
+
+
 def choose_samples(scene: Scene) -> int:
     """Samples per revolution: the scene's fixed count, or the smallest count
     whose aliasing error meets the scene's target accuracy.
@@ -64,8 +72,15 @@ def choose_samples(scene: Scene) -> int:
     n = 4 * k
     if rho > 0:
         m = k + 1
-        while m * m * rho**m > sampling.accuracy and m < 1 << 16:
+        while m * m * rho**m > sampling.accuracy and m < MAX_SAMPLES:
             m += 1
+        if m * m * rho**m > sampling.accuracy:
+            import warnings
+
+            warnings.warn(f"{scene.source}: sampling.accuracy = {sampling.accuracy:g} needs more than {MAX_SAMPLES} "
+                          f"samples per revolution (harmonics decay only like {rho:.6g}^k: a slider-crank with "
+                          f"λ close to 1 or a linkage close to its toggle position); using {MAX_SAMPLES}: see the "
+                          "aliasing estimates of the results for the accuracy reached", AccuracyWarning, stacklevel=2)
         n = max(n, m + k)
     return 8 * math.ceil(n / 8)
 

@@ -426,10 +426,7 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np
     sense = scene.sense
     n = PEAK_SAMPLES
     theta = 2 * np.pi * np.arange(n) / n
-    unit = unit_speed_loads(scene, n)
-    force = unit.force_cylinder.sum(axis=0) + unit.force_crankshaft
-    moment = (moment_about(ref, unit.force_cylinder, unit.moment_cylinder).sum(axis=0)
-              + moment_about(ref, unit.force_crankshaft, unit.moment_crankshaft))
+    force, moment = unit_speed_loads(scene, n).total(ref)
     for c in fixed[0]:
         for placements, v in zip(c.unknowns(), fixed[1][c.label]):
             f, m = _element_loads(placements, v, theta, sense, ref)

@@ -38,16 +38,12 @@ from typing import Callable
 
 import numpy as np
 
-from .balance_design import DesignError
+from .balance_design import LP_TOLERANCES, DesignError
 from .design_spec import LEVER_OBJECTIVES, LEVER_SIGNALS, PEAK_SAMPLES, LeverDesignRequest
 from .linkage import LeverBalancer, LinkBody, four_bar, lever_loads, to_engine, weight_basis
 from .orders import phasors, rotating_split
 from .scene import Scene
 from .timedomain import moment_about, unit_speed_loads
-
-#: HiGHS tolerances for the linear programmes (its defaults, 1e-7, leave the
-#: criterion a few 1e-5 relative above the optimum).
-LP_TOLERANCES = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 
 #: Orders reported in the per-order breakdown.
 BREAKDOWN_ORDERS = 4
@@ -109,13 +105,13 @@ def _lever(scene: Scene, label: str | None) -> tuple[int, LeverBalancer]:
     if label is None:
         if len(scene.levers) > 1:
             raise DesignError(f"{scene.source}: design.lever.label: the scene has several lever balancers "
-                                   f"({', '.join(l.label for l in scene.levers)}); name one")
+                              f"({', '.join(l.label for l in scene.levers)}); name one")
         return 0, scene.levers[0]
     for i, lever in enumerate(scene.levers):
         if lever.label == label:
             return i, lever
     raise DesignError(f"{scene.source}: design.lever.label = {label!r}: no such lever balancer "
-                           f"({', '.join(l.label for l in scene.levers)})")
+                      f"({', '.join(l.label for l in scene.levers)})")
 
 
 def _weight_p(body: LinkBody) -> np.ndarray:
@@ -128,24 +124,13 @@ def _signals(force: np.ndarray, moment: np.ndarray, names: tuple[str, ...]) -> n
     return np.stack([(force if n.startswith("force") else moment)[axes[n[-1]]] for n in names])
 
 
-def _engine_loads(scene: Scene, samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Shaking force and moment about the reference point at unit speed,
-    (axis, angle) each."""
-    unit = unit_speed_loads(scene, samples)
-    ref = np.asarray(scene.reference_point, dtype=float)
-    force = unit.force_cylinder.sum(axis=0) + unit.force_crankshaft
-    moment = moment_about(ref, unit.force_cylinder, unit.moment_cylinder).sum(axis=0) + moment_about(
-        ref, unit.force_crankshaft, unit.moment_crankshaft)
-    return force, moment
-
-
 def _black_box(scene: Scene, lever: LeverBalancer, request: LeverDesignRequest, theta: np.ndarray):
     """The criterion at the scene's first speed as a function of the weight
     (m, x_G, y_G), evaluated as the thesis did: the lever's exact loads
     recomputed for every trial weight (no use of linearity)."""
     ref = np.asarray(scene.reference_point, dtype=float)
     mass_torque = "mass_torque" in scene.model.effects
-    force, moment = _engine_loads(scene, len(theta))
+    force, moment = unit_speed_loads(scene, len(theta)).total(ref)
     own_force, own_moment = lever_loads((lever,), theta, scene.sense, mass_torque)
     rest_force, rest_moment = force - own_force, moment - moment_about(ref, own_force, own_moment)
     w2 = scene.speeds[0] ** 2
@@ -162,12 +147,12 @@ def lever_problem(scene: Scene, request: LeverDesignRequest, samples: int = PEAK
     """Set up the signals as an affine function of the weight's p."""
     if "balancers" not in scene.model.effects:
         raise DesignError(f"{scene.source}: model.effects: add \"balancers\"; without it the lever balancer "
-                               "is not simulated")
+                          "is not simulated")
     _, lever = _lever(scene, request.lever)
     sense = scene.sense
     theta = 2 * np.pi * np.arange(samples) / samples
     ref = np.asarray(scene.reference_point, dtype=float)
-    total = _signals(*_engine_loads(scene, samples), request.signals)
+    total = _signals(*unit_speed_loads(scene, samples).total(ref), request.signals)
     # The weight's own force is −basis·p; its moment about ref acts at the lever's plane.
     columns = weight_basis(four_bar(lever, theta, sense))  # (3, angle) complex: m·a_G per unit p
     fy, fz = to_engine(-columns, sense)

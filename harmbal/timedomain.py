@@ -41,6 +41,13 @@ class UnitSpeedLoads:
     force_crankshaft: np.ndarray
     moment_crankshaft: np.ndarray
 
+    def total(self, point) -> tuple[np.ndarray, np.ndarray]:
+        """Summed force and moment about ``point`` (axis, angle)."""
+        point = np.asarray(point, dtype=float)
+        force = self.force_cylinder.sum(axis=0) + self.force_crankshaft
+        moment = self.moment_cylinder.sum(axis=0) + self.moment_crankshaft
+        return force, moment_about(point, force, moment)
+
 
 #: Most samples per revolution the accuracy setting chooses.
 MAX_SAMPLES = 1 << 16

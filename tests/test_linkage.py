@@ -525,9 +525,12 @@ def test_near_toggle_stays_finite_and_on_its_branch(margin):
     assert (np.abs((np.conj(m.b - m.c) * (m.ddb - m.ddc)).real + np.abs(m.db - m.dc) ** 2).max()
             <= 50 * EPS * b * (ddb_max + lever.pin_radius))
     # simulate and joints are finite everywhere
-    ds = hb.simulate(scene)
-    assert np.all(np.isfinite(ds.force.values)) and np.all(np.isfinite(ds.moment.values))
-    js = hb.joints(scene)
+    with warnings.catch_warnings():
+        # Beyond the sampling cap harmbal says so (test_default_sampling_meets_the_accuracy_target_…).
+        warnings.simplefilter("ignore", hb.AccuracyWarning)
+        ds = hb.simulate(scene)
+        assert np.all(np.isfinite(ds.force.values)) and np.all(np.isfinite(ds.moment.values))
+        js = hb.joints(scene)
     for name in ("joint_force", "drive_torque", "frame_force", "frame_moment_x", "transmission_angle"):
         assert np.all(np.isfinite(js[name].values)), name
     assert float(js.discriminant_margin.sel(lever="lever")) == pytest.approx(margin, rel=1e-5)
@@ -973,7 +976,7 @@ def test_default_sampling_meets_the_accuracy_target_near_toggle_or_says_so():
     error = np.abs(default.force - reference.force).values.max()
     floor = 4 * EPS * np.abs(reference_ds.force.values).max()
     target = scene.sampling.accuracy * np.abs(reference.force.values).max()
-    told = [w for w in caught if issubclass(w.category, UserWarning)]
+    told = [w for w in caught if issubclass(w.category, hb.AccuracyWarning)]
     assert error <= target + floor or told, (
         f"default sampling {default.attrs['samples_per_rev']}: relative error "
         f"{error / np.abs(reference.force.values).max():.2e} > accuracy {scene.sampling.accuracy:g}, no warning")

@@ -296,9 +296,17 @@ def _show(args) -> None:
         print(joints_table(tree["joints"].ds))
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """Warnings as one line on stderr, like errors."""
-    print(f"harmbal: warning: {message}", file=sys.stderr)
+def _one_line_warnings():
+    """A ``warnings.showwarning`` that prints each text once, as one line on
+    stderr like errors (the same warning can come from several call sites)."""
+    printed: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if str(message) not in printed:
+            printed.add(str(message))
+            print(f"harmbal: warning: {message}", file=sys.stderr)
+
+    return show
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -307,7 +315,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
-            warnings.showwarning = _show_warning
+            warnings.showwarning = _one_line_warnings()
             args.handler(args)
     except _BadInput as exc:
         for line in str(exc).splitlines():

@@ -745,7 +745,8 @@ class _Reader:
                     self.fail(path, {"pivot": entry.get("pivot"), "pin_radius": entry.get("pin_radius"),
                                      "rocker_length": entry.get("rocker_length"),
                                      "coupler_length": entry.get("coupler_length")}, closure_message(lever, check))
-                elif check.min_transmission_angle < TRANSMISSION_WARNING:
+                elif check.min_transmission_angle < TRANSMISSION_WARNING and check.distance[1] > check.distance[0]:
+                    # (a pivot on the crank axis turns the links rigidly: a constant γ is no toggle)
                     self.warnings.append(
                         f"{self.source}: {path} ({label}): minimum transmission angle "
                         f"{math.degrees(check.min_transmission_angle):.3g}° at θ = "

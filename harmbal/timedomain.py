@@ -81,14 +81,15 @@ def choose_samples(scene: Scene) -> int:
         m = k + 1
         while m * m * rho**m > sampling.accuracy and m < MAX_SAMPLES:
             m += 1
+        n = max(n, m + k)
         if m * m * rho**m > sampling.accuracy:
             import warnings
 
             warnings.warn(f"{scene.source}: sampling.accuracy = {sampling.accuracy:g} needs more than {MAX_SAMPLES} "
                           f"samples per revolution (harmonics decay only like {rho:.6g}^k: a slider-crank with "
-                          f"λ close to 1 or a linkage close to its toggle position); using {MAX_SAMPLES}: see the "
-                          "aliasing estimates of the results for the accuracy reached", AccuracyWarning, stacklevel=2)
-        n = max(n, m + k)
+                          f"λ close to 1 or a linkage close to its toggle position); using {8 * math.ceil(n / 8)}, the "
+                          "results may be less accurate than asked: compare with a larger sampling.samples_per_rev",
+                          AccuracyWarning, stacklevel=2)
     return 8 * math.ceil(n / 8)
 
 

@@ -32,6 +32,7 @@ _EXPORTS = {
     "LinkageWarning": "linkage",
     "AccuracyWarning": "timedomain",
     "analyse": "analysis",
+    "report": "html_report",
     "save": "archive",
     "open_archive": "archive",
     "ArchiveError": "archive",

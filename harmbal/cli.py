@@ -86,6 +86,17 @@ def _parser() -> argparse.ArgumentParser:
                        help="share of each value without balancers that may remain, e.g. 0.01 (default 0)")
     check.set_defaults(handler=_verify)
 
+    rep = commands.add_parser(
+        "report", help="write a self-contained HTML report of a scene or an archive",
+        description="Analyse a scene (or read an archive written by 'harmbal run -o') and write one HTML page "
+                    "with everything inline: summary and verdict per order, order spectrum, crank stars, traces "
+                    "over the revolution, balancers and their verification, lever joint forces, and the scene "
+                    "text. It opens offline in any browser and prints to PDF.")
+    rep.add_argument("input", type=Path, metavar="SCENE_OR_ARCHIVE", help="scene file (.toml) or archive (.nc)")
+    rep.add_argument("-o", "--output", type=Path, required=True, help="HTML file to write")
+    rep.add_argument("--log", action="store_true", help="draw the order spectrum on a log scale")
+    rep.set_defaults(handler=_report)
+
     show = commands.add_parser(
         "show", help="print the tables stored in an archive",
         description="Print the free forces and moments per order from a harmbal netCDF archive, and the "
@@ -271,16 +282,40 @@ def _stars(args) -> None:
         raise _Disagreement("the order-domain and time-domain results disagree")
 
 
-def _show(args) -> None:
+def _report(args) -> None:
+    from .html_report import report
+
+    if args.output.suffix.lower() not in (".html", ".htm"):
+        raise _BadInput(f"{args.output}: the report is an HTML file (.html)")
+    if not args.output.parent.is_dir():
+        raise _BadInput(f"{args.output}: output directory {args.output.parent} does not exist")
+    if args.input.suffix.lower() == ".nc":
+        tree = _open(args.input)
+        if "scene" not in tree.children or "scene_toml" not in tree["scene"].ds.attrs:
+            raise _BadInput(f"{args.input}: archive has no /scene group with the scene text")
+    else:
+        from .analysis import analyse
+
+        tree = analyse(_load(args.input))
+    report(tree, args.output, log=args.log)
+    print(f"wrote {args.output}")
+
+
+def _open(path: Path):
     from .archive import ArchiveError, open_archive
-    from .tables import order_table
 
     try:
-        tree = open_archive(args.archive)
+        return open_archive(path)
     except FileNotFoundError:
-        raise _BadInput(f"{args.archive}: no such file") from None
+        raise _BadInput(f"{path}: no such file") from None
     except ArchiveError as exc:
         raise _BadInput(str(exc)) from None
+
+
+def _show(args) -> None:
+    from .tables import order_table
+
+    tree = _open(args.archive)
     if "orders" not in tree.children:
         raise _BadInput(f"{args.archive}: archive has no /orders group")
     print(order_table(tree["orders"].ds))

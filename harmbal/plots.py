@@ -1,4 +1,6 @@
-"""Crank stars and phasor diagrams of the free forces and moments.
+"""Figures: crank stars and phasor diagrams of the free forces and moments,
+order spectra, time traces and loci of the shaking loads, the phasing of the
+balancer elements and the joint forces of a lever balancer.
 
 Every diagram is drawn in the plane normal to the crank axis, oriented like
 the transverse vector w = v_z + i·v_t of :doc:`conventions`: +z points up and
@@ -28,11 +30,15 @@ import numpy as np
 
 from .crank_stars import star_arms
 from .files import atomic_path
+from .linkage import TRANSMISSION_WARNING
+from .orders import BALANCED_RTOL, is_balanced
 
 if TYPE_CHECKING:
     import xarray as xr
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+
+    from .scene import Scene
 
 #: The Okabe–Ito colour-blind-safe palette.
 OKABE_ITO = {
@@ -51,6 +57,26 @@ BANK_COLOURS = ("blue", "vermillion", "bluish_green", "reddish_purple", "orange"
 
 #: Colours of the per-cylinder arrows and of the resultant, per rotation.
 ROTATION_COLOURS = {"co": ("sky_blue", "blue"), "counter": ("orange", "vermillion")}
+
+#: Colours of the engine axes in the order spectrum and the time traces.
+AXIS_COLOURS = {"x": "reddish_purple", "y": "bluish_green", "z": "orange"}
+
+#: Colours of the co- and counter-rotating bars of the order spectrum.
+SPECTRUM_ROTATION_COLOURS = {"co": "blue", "counter": "vermillion"}
+
+#: The curves "before" and "after": colours of the loci, line styles and
+#: widths of the loci and of the traces of :func:`time_traces_figure`.
+RUN_COLOURS = {"before": "blue", "after": "vermillion"}
+RUN_STYLES = {"before": "-", "after": "--"}
+RUN_WIDTHS = {"before": 1.8, "after": 1.2}
+
+#: Colours for series without a fixed meaning (joints, levers, balancer
+#: elements), cycled; yellow is left out, it is hard to see on white.
+SERIES_COLOURS = ("blue", "vermillion", "bluish_green", "orange", "reddish_purple", "sky_blue", "black")
+SERIES_STYLES = ("-", "--", ":", "-.")
+
+#: Ticks of crank-angle axes [deg].
+ANGLE_TICKS = (0, 90, 180, 270, 360)
 
 #: File types :func:`save_figure` writes.
 FIGURE_FORMATS = ("svg", "png")
@@ -99,9 +125,14 @@ def _degrees(value: complex) -> str:
     return f"{phase + 0.0:.1f}°"
 
 
+def _t_label(rotation: str) -> str:
+    """What t is in the engine frame for a sense of rotation."""
+    return "+y" if rotation == "clockwise" else "−y"
+
+
 def _rotation_label(stars: xr.Dataset) -> str:
     """What t is in the engine frame, from the dataset's rotation."""
-    return "+y" if stars.attrs.get("rotation", "clockwise") == "clockwise" else "−y"
+    return _t_label(stars.attrs.get("rotation", "clockwise"))
 
 
 def _check_order(stars: xr.Dataset, order: int) -> int:
@@ -499,6 +530,410 @@ def stars_figure(stars: xr.Dataset, orders: Sequence[int] | None = None, speed: 
                   "rotation); moments about the reference point; cs = crankshaft unbalances\n"
                   f"firing order {stars.attrs.get('firing_order', '?')}", fontsize=7, color="0.3")
     return fig
+
+
+def _at_speed(ds: xr.Dataset, speed: int) -> tuple[xr.Dataset, float]:
+    """The dataset at speed index ``speed`` and that speed in rpm.
+
+    Raises
+    ------
+    ValueError
+        If the dataset has one speed and ``speed`` is not 0.
+    IndexError
+        If the index is out of range.
+    """
+    if "speed" in ds.dims:
+        ds = ds.isel(speed=speed)
+    elif speed != 0:
+        raise ValueError(f"speed index {speed} but the dataset has a single speed (index 0)")
+    return ds, float(ds["rpm"])
+
+
+def _runs(time: xr.Dataset, after: xr.Dataset | None, speed: int) -> tuple[dict[str, xr.Dataset], float]:
+    """The datasets ``before`` (and ``after``, if given) at one speed index,
+    and that speed in rpm.
+
+    Raises
+    ------
+    ValueError
+        If ``after`` is at another speed.
+    """
+    before, rpm = _at_speed(time, speed)
+    runs = {"before": before}
+    if after is not None:
+        runs["after"], other = _at_speed(after, speed)
+        if not np.isclose(other, rpm, rtol=1e-9, atol=0):
+            raise ValueError(f"'after' is at {other:.6g} rpm, not {rpm:.6g} rpm (speed index {speed})")
+    return runs, rpm
+
+
+def _closed(angle, values) -> tuple[np.ndarray, np.ndarray]:
+    """Crank angles in degrees and ``values`` (angle last) over one closed
+    revolution: the first sample repeated at 360°."""
+    values = np.asarray(values)
+    return np.append(np.degrees(np.asarray(angle, dtype=float)), 360.0), np.concatenate(
+        [values, values[..., :1]], axis=-1)
+
+
+def _angle_axis(ax: Axes) -> None:
+    """A crank-angle x axis from 0 to 360° in steps of 90°."""
+    ax.set_xlim(0, 360)
+    ax.set_xticks(ANGLE_TICKS)
+    ax.set_xlabel("crank angle θ [deg]", fontsize=8)
+
+
+def _note(ax: Axes, text: str) -> None:
+    """A note centred in the axes."""
+    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.35")
+
+
+def _series_style(index: int) -> dict:
+    """Colour and line style of the ``index``-th series without a fixed
+    colour: the colours cycle first, then the line styles."""
+    return {"color": _colour(SERIES_COLOURS[index % len(SERIES_COLOURS)]),
+            "ls": SERIES_STYLES[(index // len(SERIES_COLOURS)) % len(SERIES_STYLES)]}
+
+
+def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], labels: dict[str, str],
+          scale: float, rtol: float, log: bool, gid: str) -> None:
+    """Grouped bars of |phasor| per order, one bar per entry of ``dim``.
+
+    Components balanced at ``rtol`` × ``scale`` are drawn as bars of height 0,
+    or not at all on a log scale. Each bar has gid ``<gid>-<entry>-order<k>``.
+    """
+    from matplotlib.patches import Patch
+
+    order = np.asarray(phasors["order"].values, dtype=int)
+    amplitude = np.abs(phasors.transpose("order", dim).values)
+    heights = np.where(is_balanced(amplitude, scale, rtol), 0.0, amplitude)
+    entries = [str(e) for e in phasors[dim].values]
+    width = 0.8 / len(entries)
+    for j, entry in enumerate(entries):
+        keep = heights[:, j] > 0 if log else np.ones(len(order), dtype=bool)
+        bars = ax.bar(order[keep] + (j - (len(entries) - 1) / 2) * width, heights[keep, j], width,
+                      color=_colour(colours[entry]), log=log)
+        for bar, k in zip(bars, order[keep]):
+            bar.set_gid(f"{gid}-{entry}-order{k}")
+    if not heights.any():
+        _note(ax, "all components balanced")
+    elif log:  # at least three decades, so that nearly equal bars do not fill a sliver of a decade
+        top = heights.max()
+        ax.set_ylim(min(heights[heights > 0].min(), 1e-3 * top) / 2, 2 * top)
+    ax.set_xticks(order)
+    ax.set_xlim(order[0] - 0.6, order[-1] + 0.6)
+    ax.set_xlabel("order k [cycles/rev]", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.legend(handles=[Patch(color=_colour(colours[e]), label=labels[e]) for e in entries], fontsize=7,
+              frameon=False)
+
+
+def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: int | None = None,
+                          speed: int = 0) -> Figure:
+    """Bar charts of the order spectrum of the free force and moment.
+
+    Top row the force, bottom row the moment about the reference point;
+    left the peak amplitude |C_k| of each engine axis (x, y, z) per order,
+    right the magnitudes of the co- and counter-rotating phasors of the
+    transverse vector per order. Components balanced at the dataset's
+    ``balanced_rtol`` × load scale (:func:`harmbal.orders.is_balanced`) are
+    drawn as 0: bars of height 0, or no bar on a log scale.
+
+    Parameters
+    ----------
+    orders : xarray.Dataset
+        From :func:`harmbal.order_spectrum`.
+    log : bool, default False
+        Logarithmic amplitude axis.
+    max_order : int, optional
+        Highest order drawn; default every order of the dataset.
+    speed : int, default 0
+        Index of the crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four axes (force per axis, force rotating, moment per axis, moment
+        rotating). Each bar is a ``Rectangle`` with gid
+        ``<quantity>-<axis or rotation>-order<k>``, its height in N or N m.
+    """
+    from matplotlib.figure import Figure
+
+    sel, rpm = _at_speed(orders, speed)
+    if max_order is not None:
+        sel = sel.sel(order=sel["order"] <= max_order)
+    rtol = float(orders.attrs.get("balanced_rtol", BALANCED_RTOL))
+    fig = Figure(figsize=(11.0, 7.0), layout="constrained")
+    axes = fig.subplots(2, 2)
+    axis_labels = {a: a for a in AXIS_COLOURS}
+    rotation_labels = {"co": "co-rotating", "counter": "counter-rotating"}
+    for row, quantity in zip(axes, ("force", "moment")):
+        name, symbol, unit = _QUANTITIES[quantity]
+        scale = float(sel[f"{quantity}_scale"])
+        _bars(row[0], sel[quantity], "axis", AXIS_COLOURS, axis_labels, scale, rtol, log, quantity)
+        _bars(row[1], sel[f"{quantity}_rotating"], "rotation", SPECTRUM_ROTATION_COLOURS, rotation_labels,
+              scale, rtol, log, quantity)
+        row[0].set_ylabel(f"|{symbol}_k| per axis [{unit}]", fontsize=8)
+        row[1].set_ylabel(f"|P| [{unit}]", fontsize=8)
+        row[0].set_title(f"{name} per engine axis (peak)", fontsize=9)
+        row[1].set_title(f"{name}: co- and counter-rotating phasors", fontsize=9)
+    zero = "omitted (log scale)" if log else "drawn as 0"
+    fig.suptitle(f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the shaking loads",
+                 fontsize=11)
+    fig.supxlabel(f"peak amplitudes; moments about the reference point; components at most {rtol:g} × the "
+                  f"single-body load scale are balanced and {zero}", fontsize=7, color="0.3")
+    return fig
+
+
+def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0) -> Figure:
+    """The shaking force and moment over one crank revolution.
+
+    Parameters
+    ----------
+    time : xarray.Dataset
+        From :func:`harmbal.simulate`.
+    after : xarray.Dataset, optional
+        A second simulation at the same speeds (e.g. with balancers), drawn
+        dashed in the same colours.
+    speed : int, default 0
+        Index of the crank speed if the datasets have several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes: force [N] (top) and moment [N m] (bottom) against the crank
+        angle [deg], one colour per engine axis. Each trace is a ``Line2D``
+        with gid ``<quantity>-<axis>-<before|after>`` closed at 360° (the
+        first sample repeated).
+
+    Raises
+    ------
+    ValueError
+        If ``after`` is at another speed.
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    runs, rpm = _runs(time, after, speed)
+    fig = Figure(figsize=(9.0, 6.5), layout="constrained")
+    axes = fig.subplots(2, 1)
+    for ax, quantity in zip(axes, ("force", "moment")):
+        name, symbol, unit = _QUANTITIES[quantity]
+        for run, ds in runs.items():
+            angle, values = _closed(ds["angle"].values, ds[quantity].transpose("axis", "angle").values)
+            for axis, trace in zip(ds["axis"].values, values):
+                ax.plot(angle, trace, color=_colour(AXIS_COLOURS[str(axis)]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run],
+                        gid=f"{quantity}-{axis}-{run}")
+        handles = [Line2D([], [], color=_colour(c), label=f"{symbol}_{a}") for a, c in AXIS_COLOURS.items()]
+        if after is not None:
+            handles += [Line2D([], [], color="0.3", ls=RUN_STYLES[r], label=r) for r in runs]
+        ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+        _angle_axis(ax)
+        ax.set_ylabel(f"{name} {symbol} [{unit}]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].set_title("Shaking force on the block", fontsize=9)
+    axes[1].set_title("Shaking moment on the block about the reference point", fontsize=9)
+    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over one revolution", fontsize=11)
+    return fig
+
+
+def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0) -> Figure:
+    """The loci of the transverse force and moment over one revolution.
+
+    The tip of (F_y, F_z) and of (M_y, M_z) over the revolution, seen from
+    the front of the engine (y to the right, z up), with equal aspect and
+    the origin marked.
+
+    Parameters
+    ----------
+    time : xarray.Dataset
+        From :func:`harmbal.simulate`.
+    after : xarray.Dataset, optional
+        A second simulation at the same speeds (e.g. with balancers), drawn
+        as a second, dashed curve.
+    speed : int, default 0
+        Index of the crank speed if the datasets have several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes, force [N] and moment [N m]. Each curve is a ``Line2D`` with
+        gid ``<quantity>-locus-<before|after>``: x data the y component, y data
+        the z component, closed (the first sample repeated).
+
+    Raises
+    ------
+    ValueError
+        If ``after`` is at another speed.
+    """
+    from matplotlib.figure import Figure
+
+    runs, rpm = _runs(time, after, speed)
+    fig = Figure(figsize=(10.0, 5.4), layout="constrained")
+    for ax, quantity in zip(fig.subplots(1, 2), ("force", "moment")):
+        name, symbol, unit = _QUANTITIES[quantity]
+        for run, ds in runs.items():
+            values = ds[quantity].sel(axis=["y", "z"]).transpose("axis", "angle").values
+            _, (y, z) = _closed(ds["angle"].values, values)
+            ax.plot(y, z, color=_colour(RUN_COLOURS[run]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run], label=run,
+                    gid=f"{quantity}-locus-{run}")
+        ax.plot([0], [0], "+", color="black", markersize=10, mew=1.2, gid=f"{quantity}-origin")
+        ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+        ax.axvline(0, color="0.85", lw=0.6, zorder=0)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel(f"{symbol}_y [{unit}]", fontsize=8)
+        ax.set_ylabel(f"{symbol}_z [{unit}]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_title(f"{name} locus" + (" about the reference point" if quantity == "moment" else ""), fontsize=9)
+        if after is not None:
+            ax.legend(fontsize=7, frameon=False)
+    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over one revolution, "
+                 "seen from the front (y right, z up; + the origin)", fontsize=11)
+    return fig
+
+
+def _ratio_tag(ratio: int) -> str:
+    """A speed ratio as ``+1×`` or ``−2×``."""
+    return f"{'+' if ratio > 0 else '−'}{abs(ratio)}×"
+
+
+def phasing_figure(scene: Scene) -> Figure:
+    """The static unbalances of the balancer elements at θ = 0.
+
+    One arrow per static unbalance of every element of ``scene.shafts``
+    (counterweights, balance shafts, Lanchester pairs, crankshaft mass data),
+    from the origin in the direction of its angle at θ = 0 in the w-plane
+    orientation (+z up, angles from +z in the direction of rotation, which is
+    to the right), of length n²·U [kg m]: times ω² it is the force of the
+    unbalance at crank speed ω, so arrows compare forces. Each element turns
+    at its ratio n × crank speed from there. Couple unbalances are not drawn.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`harmbal.load_scene`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes with equal aspect; the arrows of element i (numbered among
+        the elements with static unbalances) form a ``Quiver`` with gid
+        ``phasing-<i>`` (arrows from (0, 0) by (U, V) in page coordinates:
+        horizontal t, vertical z). A scene without such elements gives the
+        note "no balancer elements".
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    t = _t_label(scene.rotation)
+    fig = Figure(figsize=(6.4, 6.4), layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_xlabel(f"t = {t}, direction of rotation: n²·U [kg m]", fontsize=8)
+    ax.set_ylabel("z: n²·U [kg m]", fontsize=8)
+    ax.set_title(f"{scene.name}: balancer unbalances at θ = 0\n+z up, direction of rotation to the right "
+                 f"(t = {t}); arrow length n²·U", fontsize=9)
+    ax.tick_params(labelsize=7)
+    elements = [shaft for shaft in scene.shafts if shaft.unbalances]
+    if not elements:
+        _note(ax, "no balancer elements")
+        return fig
+    handles = []
+    for i, shaft in enumerate(elements):
+        w = shaft.ratio**2 * np.array([u.unbalance * np.exp(1j * u.angle) for u in shaft.unbalances])
+        u, v = _page(w)
+        style = _series_style(i)
+        # Later elements are drawn thinner on top, so coincident arrows stay visible.
+        ax.quiver(np.zeros(len(w)), np.zeros(len(w)), u, v, angles="xy", scale_units="xy", scale=1,
+                  units="width", width=0.014 * max(0.3, 1 - 0.15 * i), headwidth=3.2, headlength=4.5,
+                  headaxislength=4, minlength=0, color=style["color"], zorder=3 + i, gid=f"phasing-{i}")
+        tag = _ratio_tag(shaft.ratio)
+        label = shaft.label if tag in shaft.label else f"{shaft.label} {tag}"
+        handles.append(Line2D([], [], color=style["color"], lw=2.5, label=label))
+    reach = max(max(u.unbalance for u in s.unbalances) * s.ratio**2 for s in elements) or 1.0
+    circle = np.linspace(0, 2 * np.pi, 181)
+    ax.plot(reach * np.sin(circle), reach * np.cos(circle), color="0.8", lw=0.8, zorder=1)
+    for degrees in (0, 90, 180, 270):
+        a = np.radians(degrees)
+        ax.text(1.1 * reach * np.sin(a), 1.1 * reach * np.cos(a), f"{degrees}°", ha="center", va="center",
+                fontsize=7, color="0.4")
+    ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+    ax.axvline(0, color="0.85", lw=0.6, zorder=0)
+    ax.plot([0], [0], "o", color="0.2", markersize=3, zorder=20)
+    _frame(ax, (0.0, 0.0), 1.2 * reach)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=7, frameon=False,
+              ncols=2 if len(handles) > 3 else 1)
+    return fig
+
+
+def lever_figure(joints: xr.Dataset, *, speed: int = 0) -> Figure:
+    """Joint forces over the revolution and the lever balancers' transmission
+    angles.
+
+    Parameters
+    ----------
+    joints : xarray.Dataset
+        From :func:`harmbal.joints`.
+    speed : int, default 0
+        Index of the crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes. Left, |F| [N] of every joint against the crank angle
+        [deg], one ``Line2D`` per joint labelled with its name (gid
+        ``joint-<i>``). Right, the transmission angle γ [deg] of each lever
+        (gid ``transmission-<i>``), the warning level
+        :data:`harmbal.linkage.TRANSMISSION_WARNING` as a horizontal line
+        (gid ``transmission-warning``) and
+        the dataset's minimum as a marker (gid ``min-transmission-<i>``, at
+        (θ, γ) in degrees); the note "no lever balancer" if there is none.
+    """
+    from matplotlib.figure import Figure
+
+    sel, rpm = _at_speed(joints, speed)
+    fig = Figure(figsize=(12.0, 5.2), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    force = sel["joint_force"]
+    angle, magnitude = _closed(sel["angle"].values, np.hypot(force.sel(axis="y"), force.sel(axis="z"))
+                               .transpose("joint", "angle").values)
+    for i, (name, values) in enumerate(zip(sel["joint"].values, magnitude)):
+        left.plot(angle, values, lw=1.1, label=str(name), gid=f"joint-{i}", **_series_style(i))
+    _angle_axis(left)
+    left.set_ylabel("joint force |F| [N]", fontsize=8)
+    left.set_title("Joint forces (first-named body on the second)", fontsize=9)
+    left.tick_params(labelsize=7)
+    left.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0),
+                ncols=1 + len(magnitude) // 16)
+    _angle_axis(right)
+    right.set_ylim(0, 90)
+    right.set_yticks(range(0, 91, 15))
+    right.set_ylabel("transmission angle γ [deg]", fontsize=8)
+    right.set_title("Lever balancers: transmission angle", fontsize=9)
+    right.tick_params(labelsize=7)
+    if "lever" not in sel.dims:
+        _note(right, "no lever balancer")
+    else:
+        _transmission(right, sel)
+    fig.suptitle(f"{joints.attrs.get('engine', '')} at {rpm:.6g} rpm: joint forces and transmission angle",
+                 fontsize=11)
+    return fig
+
+
+def _transmission(ax: Axes, joints: xr.Dataset) -> None:
+    """Draw each lever's transmission angle over θ, its minimum and the
+    warning level (all in degrees)."""
+    warning = np.degrees(TRANSMISSION_WARNING)
+    angle, gamma = _closed(joints["angle"].values, joints["transmission_angle"].transpose("lever", "angle").values)
+    for i, lever in enumerate(joints["lever"].values):
+        style = _series_style(i)
+        low = float(np.degrees(joints["min_transmission_angle"].sel(lever=lever)))
+        where = float(np.degrees(joints["min_transmission_theta"].sel(lever=lever)))
+        ax.plot(angle, np.degrees(gamma[i]), lw=1.3, label=str(lever), gid=f"transmission-{i}", **style)
+        ax.plot([where], [low], "v", color=style["color"], markersize=7, ls="none",
+                label=f"{lever}: min {low:.1f}° at θ = {where:.1f}°", gid=f"min-transmission-{i}")
+    ax.axhline(warning, color=_colour("vermillion"), lw=1.0, ls="--", label=f"warning below {warning:.0f}°",
+               gid="transmission-warning")
+    ax.legend(fontsize=7, frameon=False, loc="lower right")
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> Path:

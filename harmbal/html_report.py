@@ -1,0 +1,302 @@
+"""One self-contained HTML report per scene or archive.
+
+The page holds everything inline: styles in a ``<style>`` element and every
+figure as an ``<svg>`` element (text kept as text), so it opens offline in any
+browser and prints to PDF without cut figures (each figure and table is kept
+on one page). The report is built from an analysis tree (:func:`harmbal.analyse`
+or :func:`harmbal.open_archive`) and the scene text stored in it, so a report
+from an archive equals the report from the scene it came from.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ._version import __version__
+from .orders import is_balanced
+
+#: Crank angles per revolution of the traces and loci (one every 0.5°).
+TRACE_SAMPLES = 720
+
+_STYLE = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: #1a1a1a;
+       max-width: 62rem; margin: 2rem auto; padding: 0 1rem; line-height: 1.45; }
+h1 { font-size: 1.7rem; margin-bottom: 0.2rem; } h2 { font-size: 1.3rem; margin-top: 2.2rem;
+       border-bottom: 1px solid #ccc; padding-bottom: 0.2rem; } h3 { font-size: 1.05rem; }
+table { border-collapse: collapse; margin: 0.6rem 0; font-size: 0.88rem; }
+th, td { border: 1px solid #d0d0d0; padding: 0.2rem 0.5rem; text-align: right; }
+th { background: #f2f2f2; } td.text, th.text { text-align: left; }
+figure { margin: 1rem 0; } figure svg { width: 100%; height: auto; display: block; }
+figcaption { font-size: 0.85rem; color: #444; }
+pre { background: #f6f6f6; padding: 0.8rem; overflow-x: auto; font-size: 0.8rem; }
+.verdict-balanced { color: #006d4f; } .verdict-free { color: #a33b00; }
+.note { font-size: 0.85rem; color: #444; }
+@media print {
+  body { max-width: none; margin: 0; }
+  figure, table, pre { break-inside: avoid; page-break-inside: avoid; }
+  h2 { break-after: avoid; page-break-after: avoid; }
+  pre { white-space: pre-wrap; }
+}
+"""
+
+
+def _e(text) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _svg(fig, number: int) -> str:
+    """A figure as an inline ``<svg>`` element: deterministic, text as text,
+    ids unique on the page (one hash salt per figure)."""
+    import matplotlib
+
+    buffer = io.StringIO()
+    with matplotlib.rc_context({"svg.hashsalt": f"harmbal-{number}", "svg.fonttype": "none"}):
+        fig.savefig(buffer, format="svg", metadata={"Date": None})
+    text = buffer.getvalue()
+    return text[text.index("<svg"):]
+
+
+def _table(header: list[str], rows: list[list], text_columns: int = 1) -> str:
+    def cells(values, tag):
+        out = []
+        for i, value in enumerate(values):
+            css = ' class="text"' if i < text_columns else ""
+            out.append(f"<{tag}{css}>{_e(value)}</{tag}>")
+        return "".join(out)
+
+    body = "".join(f"<tr>{cells(r, 'td')}</tr>" for r in rows)
+    return f"<table><thead><tr>{cells(header, 'th')}</tr></thead><tbody>{body}</tbody></table>"
+
+
+class _Page:
+    """Collects sections and numbers the figures."""
+
+    def __init__(self):
+        self.parts: list[str] = []
+        self.figures = 0
+
+    def add(self, text: str) -> None:
+        self.parts.append(text)
+
+    def figure(self, fig, caption: str, name: str) -> None:
+        self.figures += 1
+        self.add(f'<figure id="figure-{name}" data-figure="{_e(name)}">{_svg(fig, self.figures)}'
+                 f"<figcaption>Figure {self.figures}. {_e(caption)}</figcaption></figure>")
+
+
+def _first_speed(ds):
+    return ds.isel(speed=0) if "speed" in ds.dims else ds
+
+
+def _phasor(value: complex, scale: float, rtol: float) -> tuple[str, str]:
+    if is_balanced(abs(value), scale, rtol):
+        return "0", "—"
+    return f"{abs(value):.5g}", f"{round(math.degrees(np.angle(value)), 1) + 0.0:.1f}°"
+
+
+def _summary(page: _Page, scene, tree) -> None:
+    from .tables import verdict
+
+    time, stars = tree["time"].ds, _first_speed(tree["stars"].ds)
+    orders = tree["orders"].ds
+    rpm = ", ".join(f"{v:.6g}" for v in np.atleast_1d(time["rpm"].values))
+    alias_f = float(np.max(orders["aliasing_error_force"].values))
+    alias_m = float(np.max(orders["aliasing_error_moment"].values))
+    ref = np.asarray(scene.reference_point) * 1e3
+    rows = [
+        ["engine", scene.name], ["description", scene.description or "—"],
+        ["speed(s)", f"{rpm} rpm"], ["rotation (seen from the front)", scene.rotation],
+        ["cycle", f"{scene.cycle}-stroke"], ["cylinders", str(len(scene.cylinders))],
+        ["effects simulated", time.attrs["effects"]],
+        ["model", f"piston {time.attrs['piston_model']}, rod {time.attrs['rod_model']}"],
+        ["sampling", f"{time.attrs['samples_per_rev']} samples per revolution, orders up to "
+                     f"{time.attrs['max_order']}"],
+        ["estimated accuracy (aliasing)", f"force {alias_f:.2g} N, moment {alias_m:.2g} N m"],
+        ["moments about", f"({ref[0]:g}, {ref[1]:g}, {ref[2]:g}) mm"],
+        ["harmbal version", __version__],
+    ]
+    page.add('<section id="summary"><h2>Summary</h2>' + _table(["item", "value"], rows, 2))
+    verdict_rows = []
+    for k in stars["order"].values[1:]:
+        text = verdict(stars, int(k))
+        verdict_rows.append(f'<tr><td>{int(k)}</td><td class="text verdict-{"balanced" if text == "balanced" else "free"}">'
+                            f"{_e(text)}</td></tr>")
+    page.add(f'<h3>Verdict per order at {float(np.atleast_1d(stars["rpm"].values)[0]):.6g} rpm</h3>'
+             '<table><thead><tr><th>order</th><th class="text">verdict</th></tr></thead><tbody>'
+             + "".join(verdict_rows) + "</tbody></table></section>")
+
+
+def _spectrum(page: _Page, tree, log: bool) -> None:
+    from .plots import order_spectrum_figure
+
+    orders = _first_speed(tree["orders"].ds)
+    rtol = float(orders.attrs.get("balanced_rtol", 1e-10))
+    page.add('<section id="spectrum"><h2>Order spectrum</h2>')
+    page.figure(order_spectrum_figure(tree["orders"].ds, log=log),
+                f"Free force and moment per order and axis, and their co- and counter-rotating parts"
+                f"{' (log scale)' if log else ''}.", "spectrum")
+    for name, units in (("force", "N"), ("moment", "N m")):
+        scale = float(orders[f"{name}_scale"])
+        rows = []
+        for k in orders["order"].values[1:]:
+            row = [int(k)]
+            for value in list(orders[name].values[k]) + list(orders[f"{name}_rotating"].values[k]):
+                row += _phasor(complex(value), scale, rtol)
+            rows.append(row)
+        header = ["order"] + [f"{c} {part}" for c in ("x", "y", "z", "co", "counter") for part in ("amplitude", "phase")]
+        page.add(f"<h3>Free {name} [{units}]</h3>" + _table(header, rows, 0))
+    page.add('<p class="note">Amplitudes are peak values of Re(C·e^{ikθ}); phases at θ = 0. Components within '
+             f"{rtol:g} of the single-body load scale are balanced and shown as 0.</p></section>")
+
+
+def _stars(page: _Page, tree) -> None:
+    from .plots import stars_figure
+
+    page.add('<section id="stars"><h2>Crank stars and phasor diagrams</h2>')
+    page.figure(stars_figure(tree["stars"].ds), "Crank stars and the free force and moment phasors per order "
+                "(each cylinder's arrow head to tail, co- and counter-rotating).", "stars")
+    page.add("</section>")
+
+
+def _traces(page: _Page, scene, tree) -> None:
+    from .plots import locus_figure, time_traces_figure
+    from .timedomain import simulate
+
+    # Smooth curves need more angles than the spectra: the traces are simulated again from the scene
+    # at TRACE_SAMPLES or more (the same from a scene and from its archive).
+    samples = max(int(tree["time"].ds.attrs["samples_per_rev"]), TRACE_SAMPLES)
+    after = simulate(scene, samples_per_rev=samples)
+    before = None
+    if (scene.shafts or scene.levers) and "balancers" in scene.model.effects:
+        before = simulate(scene.with_effects(scene.model.effects - {"balancers"}), samples_per_rev=samples)
+    page.add('<section id="time"><h2>Over one revolution</h2>')
+    if before is None:
+        page.figure(time_traces_figure(after), "Shaking force and moment per axis over the crank angle.", "traces")
+        page.figure(locus_figure(after), "Locus of the transverse force and moment over the revolution.", "locus")
+    else:
+        page.figure(time_traces_figure(before, after=after), "Shaking force and moment per axis over the crank "
+                    "angle, without the balancer elements (solid) and with them (dashed).", "traces")
+        page.figure(locus_figure(before, after=after), "Locus of the transverse force and moment, without and "
+                    "with the balancer elements.", "locus")
+    page.add("</section>")
+
+
+def _balancers(page: _Page, scene, tree) -> None:
+    from .plots import phasing_figure
+    from .design_spec import signed_ratio
+
+    if not scene.shafts and "verify" not in tree.children:
+        return
+    page.add('<section id="balancers"><h2>Balancers</h2>')
+    rows = []
+    for shaft in scene.shafts:
+        kind = "crank counterweight" if shaft.ratio == 1 and shaft.y == 0 and shaft.z == 0 else "balance shaft"
+        for u in shaft.unbalances:
+            rows.append([shaft.label, kind, signed_ratio(shaft.ratio), f"{u.unbalance * 1e3:.5g} kg mm",
+                         f"{math.degrees(u.angle) % 360:.2f}°", f"{u.x * 1e3:.6g} mm",
+                         f"({shaft.y * 1e3:g}, {shaft.z * 1e3:g}) mm"])
+        if shaft.couple:
+            rows.append([shaft.label, "couple unbalance", signed_ratio(shaft.ratio),
+                         f"{abs(shaft.couple) * 1e6:.5g} kg mm²", f"{math.degrees(np.angle(shaft.couple)) % 360:.2f}°",
+                         "—", f"({shaft.y * 1e3:g}, {shaft.z * 1e3:g}) mm"])
+    if rows:
+        page.add(_table(["element", "type", "speed ratio", "unbalance", "angle at θ = 0", "axial position",
+                         "axis (y, z)"], rows, 2))
+        page.figure(phasing_figure(scene), "Phasing of the balancer elements at θ = 0: each unbalance as n²·U in "
+                    "its direction (+z up, the direction of rotation to the right).", "phasing")
+    if "verify" in tree.children:
+        check = _first_speed(tree["verify"].ds)
+        vrows = []
+        for k in check["order"].values:
+            for name in check["component"].values:
+                if not bool(check["targeted"].sel(component=name)):
+                    continue
+                row = check.sel(order=k, component=name)
+                units = str(row["component_units"].values)
+                vrows.append([f"order {int(k)} {str(name).replace('_', ' ')}", f"{abs(complex(row['before'])):.5g} {units}",
+                              f"{abs(complex(row['predicted'])):.3g} {units}", f"{abs(complex(row['exact'])):.3g} {units}",
+                              f"{float(row['tolerance']):.2g} {units}", "pass" if bool(row["passed"]) else "FAIL"])
+        page.add(f"<h3>Verification by the exact model: {'passed' if check.attrs['passed'] == 'yes' else 'FAILED'}"
+                 "</h3>" + _table(["target", "before", "predicted", "exact residual", "tolerance", "result"], vrows, 1))
+    page.add("</section>")
+
+
+def _lever(page: _Page, tree) -> None:
+    from .plots import lever_figure
+
+    if "joints" not in tree.children:
+        return
+    joints = tree["joints"].ds
+    sel = _first_speed(joints)
+    page.add('<section id="lever"><h2>Lever balancers and joint forces</h2>')
+    rows = [[str(name), str(sel["joint_description"].values[j]), f"{float(sel['joint_force_peak'].values[j]):.5g} N",
+             f"{math.degrees(float(sel['joint_force_peak_angle'].values[j])):.1f}°"]
+            for j, name in enumerate(sel["joint"].values)]
+    page.add(_table(["joint", "acting", "peak", "at θ"], rows, 2))
+    if "lever" in joints.dims:
+        drows = [[str(label), f"{math.degrees(float(joints['min_transmission_angle'].sel(lever=label))):.4g}°",
+                  f"{math.degrees(float(joints['min_transmission_theta'].sel(lever=label))):.5g}°",
+                  f"{float(joints['discriminant_margin'].sel(lever=label)):.4g}"] for label in joints["lever"].values]
+        page.add(_table(["lever", "minimum transmission angle", "at θ", "closure margin min sin²γ"], drows, 1))
+    page.figure(lever_figure(joints), "Joint force magnitudes and the transmission angle over the crank angle.",
+                "lever")
+    page.add("</section>")
+
+
+def _provenance(page: _Page, scene, source: str) -> None:
+    page.add('<section id="provenance"><h2>Provenance</h2>'
+             f"<p>Made by harmbal {_e(__version__)} from <code>{_e(source)}</code>. To reproduce:</p>"
+             f"<pre>pip install harmbal=={_e(__version__)}\nharmbal report {_e(source)} -o report.html</pre>"
+             f"<h3>Scene</h3><pre>{_e(scene.source_text)}</pre></section>")
+
+
+def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, source: str | None = None) -> str:
+    """The HTML report of an analysis.
+
+    Parameters
+    ----------
+    tree : xarray.DataTree
+        From :func:`harmbal.analyse` or :func:`harmbal.open_archive` (its
+        ``/scene`` group holds the scene text the report rebuilds from).
+    path : path-like, optional
+        Write the page there (atomically).
+    log : bool, default False
+        Draw the order spectrum on a log scale.
+    source : str, optional
+        The file named under "provenance"; default the scene's source.
+
+    Returns
+    -------
+    str
+        The HTML text.
+    """
+    from .scene import scene_from_text
+
+    attrs = tree["scene"].ds.attrs
+    scene = scene_from_text(attrs["scene_toml"], attrs.get("source", "<scene>"))
+    page = _Page()
+    _summary(page, scene, tree)
+    _spectrum(page, tree, log)
+    _stars(page, tree)
+    _traces(page, scene, tree)
+    _balancers(page, scene, tree)
+    _lever(page, tree)
+    _provenance(page, scene, source or scene.source)
+    title = f"harmbal report: {scene.name}"
+    text = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{_e(title)}</title>"
+            f"<style>{_STYLE}</style></head><body><h1>{_e(title)}</h1>"
+            f"<p class=\"note\">{_e(scene.description)}</p>" + "\n".join(page.parts) + "</body></html>\n")
+    if path is not None:
+        from .files import atomic_path
+
+        with atomic_path(Path(path)) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+            os.chmod(tmp, 0o644)
+    return text

@@ -128,7 +128,7 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
     co-rotating force and moment (static balance alone with one plane) of the
     rotating masses (throw and crankshaft unbalances, rod big ends, the
     crankshaft's own CG) plus 2f × those of the reciprocating masses."""
-    on_crank = tuple(e for e in scene.shafts if e.ratio == 1 and e.y == 0 and e.z == 0)
+    on_crank = tuple(e for e in scene.shafts if e.on_crank)
     rot = order_phasors(dataclasses.replace(scene.with_effects({"rotating", "balancers"}), shafts=on_crank))
     rec = order_phasors(scene.with_effects({"reciprocating"}))
     f = candidate.balance_factor

@@ -60,6 +60,12 @@ class Shaft:
     unbalances: tuple[ShaftUnbalance, ...] = ()
     couple: complex = 0j
 
+    @property
+    def on_crank(self) -> bool:
+        """Part of the crankshaft: turns with it on its axis (counterweights,
+        the crankshaft's CAD data)."""
+        return self.ratio == 1 and self.y == 0 and self.z == 0
+
 
 def couple_from_products(j_xy: float, j_xz: float, convention: str, sense: int) -> complex:
     """The complex couple unbalance [kg m²] from products of inertia about the

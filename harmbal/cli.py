@@ -111,8 +111,8 @@ def _run(args) -> None:
     from .archive import save
     from .tables import order_table
 
-    if args.output is not None and not args.output.parent.is_dir():
-        raise _BadInput(f"{args.output}: output directory {args.output.parent} does not exist")
+    if args.output is not None:
+        _check_output(args.output)
     scene = _load(args.scene)
     tree = analyse(scene, backend=args.backend)
     print(order_table(tree["orders"].ds))
@@ -169,26 +169,21 @@ def _design(args) -> None:
     from .balance_design import DesignError, design
     from .balance_verify import verify
     from .design_spec import LeverDesignRequest
-    from .lever_design import LeverDesign, design_lever
+    from .lever_design import design_lever
     from .tables import design_table, lever_design_table, verify_table
 
-    if args.output.suffix.lower() != ".toml":
-        raise _BadInput(f"{args.output}: the design is written as a scene file (.toml)")
-    if not args.output.parent.is_dir():
-        raise _BadInput(f"{args.output}: output directory {args.output.parent} does not exist")
+    _check_output(args.output, (".toml",), "the design is written as a scene file (.toml)")
     if args.output.resolve() == args.scene.resolve():
         raise _BadInput(f"{args.output}: would overwrite the input scene; choose another file")
     scene = _load(args.scene)
+    lever = isinstance(scene.design, LeverDesignRequest)
+    if args.method != "exact" and not lever:
+        raise _BadInput(f"--method {args.method}: only for lever balancers ([design.lever])")
     try:
-        if isinstance(scene.design, LeverDesignRequest):
-            result = design_lever(scene, method=args.method, name=args.name)
-        elif args.method != "exact":
-            raise _BadInput(f"--method {args.method}: only for lever balancers ([design.lever])")
-        else:
-            result = design(scene, name=args.name)
+        result = design_lever(scene, method=args.method, name=args.name) if lever else design(scene, name=args.name)
     except DesignError as exc:
         raise _BadInput(str(exc)) from None
-    if isinstance(result, LeverDesign):
+    if lever:
         print(lever_design_table(result))
         if not result.verified:
             raise _Disagreement("the exact model does not confirm the design; nothing written")
@@ -204,6 +199,15 @@ def _design(args) -> None:
     if check.attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the design; nothing written")
     _write_scene(args.output, result.text)
+
+
+def _check_output(path: Path, suffixes: tuple[str, ...] = (), rule: str = "") -> None:
+    """Refuse an output file with the wrong extension (``rule`` says which)
+    or in a directory that does not exist, before any work is done."""
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise _BadInput(f"{path}: {rule}")
+    if not path.parent.is_dir():
+        raise _BadInput(f"{path}: output directory {path.parent} does not exist")
 
 
 def _write_scene(path: Path, text: str) -> None:
@@ -260,10 +264,7 @@ def _stars(args) -> None:
     from .tables import stars_table, verification_table
 
     if args.plot is not None:
-        if args.plot.suffix.lower() not in (".svg", ".png"):
-            raise _BadInput(f"{args.plot}: --plot writes .svg or .png files")
-        if not args.plot.parent.is_dir():
-            raise _BadInput(f"{args.plot}: output directory {args.plot.parent} does not exist")
+        _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     scene = _load(args.scene)
     ds = stars(scene)
     if args.orders and max(args.orders) > ds.sizes["order"] - 1:
@@ -285,10 +286,7 @@ def _stars(args) -> None:
 def _report(args) -> None:
     from .html_report import report
 
-    if args.output.suffix.lower() not in (".html", ".htm"):
-        raise _BadInput(f"{args.output}: the report is an HTML file (.html)")
-    if not args.output.parent.is_dir():
-        raise _BadInput(f"{args.output}: output directory {args.output.parent} does not exist")
+    _check_output(args.output, (".html", ".htm"), "the report is an HTML file (.html)")
     if args.input.suffix.lower() == ".nc":
         tree = _open(args.input)
         if "scene" not in tree.children or "scene_toml" not in tree["scene"].ds.attrs:

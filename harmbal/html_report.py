@@ -196,7 +196,7 @@ def _balancers(page: _Page, scene, tree) -> None:
     page.add('<section id="balancers"><h2>Balancers</h2>')
     rows = []
     for shaft in scene.shafts:
-        kind = "crank counterweight" if shaft.ratio == 1 and shaft.y == 0 and shaft.z == 0 else "balance shaft"
+        kind = "crank counterweight" if shaft.on_crank else "balance shaft"
         for u in shaft.unbalances:
             rows.append([shaft.label, kind, signed_ratio(shaft.ratio), f"{u.unbalance * 1e3:.5g} kg mm",
                          f"{math.degrees(u.angle) % 360:.2f}°", f"{u.x * 1e3:.6g} mm",

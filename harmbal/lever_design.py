@@ -345,7 +345,9 @@ def _breakdown(scene: Scene, problem: LeverProblem, request: LeverDesignRequest,
         per_signal[label] = [criterion(values[[i]], request.objective, request.orders, request.weights)
                              for i in range(len(problem.signals))]
     force = {}
-    force_problem = lever_problem(scene, replace(request, signals=("force_y", "force_z")), len(problem.theta))
+    force_signals = ("force_y", "force_z")
+    force_problem = problem if problem.signals == force_signals else lever_problem(
+        scene, replace(request, signals=force_signals), len(problem.theta))
     for label, p in (("start", before), ("optimum", after)):
         fy, fz = force_problem.values(p) * w2
         spec = phasors(np.stack([fz, -scene.sense * fy]))  # w = z + i·t, t = −sense·y

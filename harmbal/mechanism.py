@@ -167,7 +167,7 @@ def reactions(scene: Scene, theta: np.ndarray) -> Reactions:
     unbalance = sum((u.unbalance * np.exp(1j * (c.throw + u.angle)) for c in scene.cylinders
                      for u in c.throw_unbalances), 0j)
     unbalance += sum((u.unbalance * np.exp(1j * u.angle) for u in scene.crankshaft_unbalances), 0j)
-    unbalance += sum((u.unbalance * np.exp(1j * u.angle) for s in scene.shafts if _on_crank(s)
+    unbalance += sum((u.unbalance * np.exp(1j * u.angle) for s in scene.shafts if s.on_crank
                       for u in s.unbalances), 0j)
     bearing = crank_pins + couplers - unbalance * np.exp(1j * theta)
     forces = {"D": bearing, **forces}
@@ -175,11 +175,6 @@ def reactions(scene: Scene, theta: np.ndarray) -> Reactions:
     frame_force = -(bearing + pivots + walls)
     return Reactions(theta, forces, describe, torque, np.array(couples).reshape(len(couples), len(theta)),
                      frame_force, frame_roll)
-
-
-def _on_crank(shaft) -> bool:
-    """A shaft element that is part of the crankshaft (counterweights, CAD data)."""
-    return shaft.ratio == 1 and shaft.y == 0 and shaft.z == 0
 
 
 def joints(scene: Scene, *, samples_per_rev: int | None = None):

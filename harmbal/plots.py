@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .crank_stars import star_arms
+from .design_spec import signed_ratio
 from .files import atomic_path
 from .linkage import TRANSMISSION_WARNING
 from .orders import BALANCED_RTOL, is_balanced
@@ -792,11 +793,6 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
     return fig
 
 
-def _ratio_tag(ratio: int) -> str:
-    """A speed ratio as ``+1×`` or ``−2×``."""
-    return f"{'+' if ratio > 0 else '−'}{abs(ratio)}×"
-
-
 def phasing_figure(scene: Scene) -> Figure:
     """The static unbalances of the balancer elements at θ = 0.
 
@@ -846,7 +842,7 @@ def phasing_figure(scene: Scene) -> Figure:
         ax.quiver(np.zeros(len(w)), np.zeros(len(w)), u, v, angles="xy", scale_units="xy", scale=1,
                   units="width", width=0.014 * max(0.3, 1 - 0.15 * i), headwidth=3.2, headlength=4.5,
                   headaxislength=4, minlength=0, color=style["color"], zorder=3 + i, gid=f"phasing-{i}")
-        tag = _ratio_tag(shaft.ratio)
+        tag = signed_ratio(shaft.ratio)
         label = shaft.label if tag in shaft.label else f"{shaft.label} {tag}"
         handles.append(Line2D([], [], color=style["color"], lw=2.5, label=label))
     reach = max(max(u.unbalance for u in s.unbalances) * s.ratio**2 for s in elements) or 1.0

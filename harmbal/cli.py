@@ -95,6 +95,8 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("input", type=Path, metavar="SCENE_OR_ARCHIVE", help="scene file (.toml) or archive (.nc)")
     rep.add_argument("-o", "--output", type=Path, required=True, help="HTML file to write")
     rep.add_argument("--log", action="store_true", help="draw the order spectrum on a log scale")
+    rep.add_argument("--css", type=Path, metavar="FILE.css",
+                     help="style rules added after the built-in ones (house fonts, colours, widths)")
     rep.set_defaults(handler=_report)
 
     show = commands.add_parser(
@@ -287,6 +289,14 @@ def _report(args) -> None:
     from .html_report import report
 
     _check_output(args.output, (".html", ".htm"), "the report is an HTML file (.html)")
+    css = ""
+    if args.css is not None:
+        try:
+            css = args.css.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise _BadInput(f"{args.css}: cannot read the style sheet ({exc})") from exc
+        if "</style" in css.lower():
+            raise _BadInput(f"{args.css}: a style sheet cannot contain '</style'")
     if args.input.suffix.lower() == ".nc":
         tree = _open(args.input)
         if "scene" not in tree.children or "scene_toml" not in tree["scene"].ds.attrs:
@@ -295,7 +305,7 @@ def _report(args) -> None:
         from .analysis import analyse
 
         tree = analyse(_load(args.input))
-    report(tree, args.output, log=args.log)
+    report(tree, args.output, log=args.log, css=css)
     print(f"wrote {args.output}")
 
 

@@ -40,6 +40,7 @@ pre { background: #f6f6f6; padding: 0.8rem; overflow-x: auto; font-size: 0.8rem;
 @media print {
   body { max-width: none; margin: 0; }
   figure, table, pre { break-inside: avoid; page-break-inside: avoid; }
+  figure svg { max-height: 23cm; }  /* a tall figure shrinks to one A4 page, caption included */
   h2 { break-after: avoid; page-break-after: avoid; }
   pre { white-space: pre-wrap; }
 }
@@ -256,7 +257,8 @@ def _provenance(page: _Page, scene, source: str) -> None:
              f"<h3>Scene</h3><pre>{_e(scene.source_text)}</pre></section>")
 
 
-def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, source: str | None = None) -> str:
+def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, source: str | None = None,
+           css: str = "") -> str:
     """The HTML report of an analysis.
 
     Parameters
@@ -270,6 +272,9 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
         Draw the order spectrum on a log scale.
     source : str, optional
         The file named under "provenance"; default the scene's source.
+    css : str, optional
+        Style rules added after the built-in ones (so they take precedence),
+        e.g. a house font or wider pages; see docs/report.md.
 
     Returns
     -------
@@ -291,7 +296,7 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     title = f"harmbal report: {scene.name}"
     text = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{_e(title)}</title>"
-            f"<style>{_STYLE}</style></head><body><h1>{_e(title)}</h1>"
+            f"<style>{_STYLE}{css}</style></head><body><h1>{_e(title)}</h1>"
             f"<p class=\"note\">{_e(scene.description)}</p>" + "\n".join(page.parts) + "</body></html>\n")
     if path is not None:
         from .files import atomic_path

@@ -182,3 +182,25 @@ def test_cli_report_bad_output_exits_2_and_writes_nothing(tmp_path, capsys, outp
     assert main(["report", str(ENGINES / "v-twin-90.toml"), "-o", str(tmp_path / output)]) == 2
     assert "harmbal: error:" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_report_css_is_added_after_the_built_in_style(tmp_path):
+    css = tmp_path / "house.css"
+    css.write_text("body { font-family: 'House Sans'; }\n", encoding="utf-8")
+    out = tmp_path / "r.html"
+    assert main(["report", str(ENGINES / "v-twin-90.toml"), "-o", str(out), "--css", str(css)]) == 0
+    style = out.read_text(encoding="utf-8").split("<style>")[1].split("</style>")[0]
+    assert style.endswith("body { font-family: 'House Sans'; }\n")
+    assert style.index("system-ui") < style.index("House Sans")
+
+
+@pytest.mark.parametrize("content", [None, "</style><script>alert(1)</script>"])
+def test_cli_report_bad_css_exits_2_and_writes_nothing(tmp_path, capsys, content):
+    css = tmp_path / "house.css"
+    if content is not None:
+        css.write_text(content, encoding="utf-8")
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["report", str(ENGINES / "v-twin-90.toml"), "-o", str(out / "r.html"), "--css", str(css)]) == 2
+    assert "house.css" in capsys.readouterr().err
+    assert list(out.iterdir()) == []

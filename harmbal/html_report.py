@@ -303,5 +303,4 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
 
         with atomic_path(Path(path)) as tmp:
             tmp.write_text(text, encoding="utf-8")
-            os.chmod(tmp, 0o644)
     return text

@@ -964,5 +964,4 @@ def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
     options = {"svg": {"metadata": {"Date": None}}, "png": {"dpi": 150}}[fmt]
     with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "harmbal", "svg.fonttype": "none"}):
         fig.savefig(tmp, format=fmt, **options)
-        os.chmod(tmp, 0o644)  # mkstemp makes it private; a figure is not
     return path

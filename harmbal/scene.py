@@ -18,6 +18,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
+import numpy as np
+
 from .balancers import PRODUCT_CONVENTIONS, Shaft, ShaftUnbalance, couple_from_moment, couple_from_products
 from .design_spec import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate,
                           DesignRequest, LeverDesignRequest, VerifyRequest)
@@ -31,6 +33,8 @@ ROTATIONS = ("clockwise", "counterclockwise")
 
 DEFAULT_ACCURACY = 1e-12
 DEFAULT_MAX_ORDER = 12
+#: Most speeds a sweep may ask for (one evaluation serves them all; 10⁶ keeps the Datasets ~1 GB at most).
+MAX_SPEEDS = 1_000_000
 
 
 # --------------------------------------------------------------------------
@@ -191,6 +195,16 @@ class Scene:
         """The same scene simulating only those of its effects in ``effects``."""
         return replace(self, model=replace(self.model, effects=self.model.effects & effects))
 
+    def with_speeds(self, speeds) -> "Scene":
+        """The same scene at other crank speeds [rad/s] (any number, each > 0,
+        distinct): one evaluation of the model serves them all (ω² scaling)."""
+        values = np.atleast_1d(np.asarray(speeds, dtype=float))
+        if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values) & (values > 0)):
+            raise ValueError("speeds must be a non-empty 1-D sequence of finite speeds > 0 [rad/s]")
+        if np.unique(values).size != values.size:
+            raise ValueError("speeds must be distinct")
+        return replace(self, speeds=tuple(values.tolist()))
+
     @property
     def sense(self) -> int:
         """+1 if the crank turns about +x (counterclockwise seen from the
@@ -264,6 +278,7 @@ _TOP_KEYS = {
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
     "lanchester_pair", "lever_balancer", "design", "verify",
 }
+_SWEEP_KEYS = {"from", "to", "points"}
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
 _SAMPLING_KEYS = {"samples_per_rev", "accuracy", "max_order"}
@@ -784,6 +799,8 @@ class _Reader:
 
     def speeds(self, engine: Mapping) -> tuple[float, ...]:
         raw = engine.get("speed", _MISSING)
+        if isinstance(raw, Mapping):
+            return self.speed_sweep(raw)
         if isinstance(raw, list):
             if not raw:
                 self.fail("engine.speed", raw, "give at least one speed")
@@ -795,6 +812,27 @@ class _Reader:
         if len(set(finite)) != len(finite):
             self.fail("engine.speed", raw, "speeds must be distinct")
         return speeds
+
+    def speed_sweep(self, table: Mapping) -> tuple[float, ...]:
+        """``speed = {from = ..., to = ..., points = N}``: N speeds evenly spaced."""
+        self.unknown(table, "engine.speed", _SWEEP_KEYS)
+        low = self.quantity(table, "from", "engine.speed", "speed", positive=True)
+        high = self.quantity(table, "to", "engine.speed", "speed", positive=True)
+        if "points" not in table:
+            self.fail("engine.speed.points", _MISSING, "missing required key")
+            return (math.nan,)
+        points = self.integer(table, "points", "engine.speed", None, minimum=2)
+        if points is None:
+            return (math.nan,)
+        if points > MAX_SPEEDS:
+            self.fail("engine.speed.points", points, f"must be at most {MAX_SPEEDS}")
+            return (math.nan,)
+        if not (math.isfinite(low) and math.isfinite(high)):
+            return (math.nan,)
+        if not low < high:
+            self.fail("engine.speed.to", table.get("to"), "must be above engine.speed.from")
+            return (math.nan,)
+        return tuple(np.linspace(low, high, points).tolist())
 
     def model(self, table: Mapping) -> Model:
         effects_raw = table.get("effects", list(EFFECTS))

@@ -6,6 +6,20 @@ import numpy as np
 
 from .orders import is_balanced
 
+#: A sweep with more speeds than this prints its lowest and highest speed only.
+PRINTED_SPEEDS = 8
+
+
+def _speeds(ds) -> tuple[list[tuple[int, float]], list[str]]:
+    """(index, rpm) of the speeds to print, and a note when some are left out."""
+    rpm = np.atleast_1d(ds["rpm"].values)
+    if rpm.size <= PRINTED_SPEEDS:
+        return list(enumerate(rpm)), []
+    ends = [int(np.argmin(rpm)), int(np.argmax(rpm))]
+    return [(i, rpm[i]) for i in ends], [
+        "", f"{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the tables show the lowest and the "
+        "highest (inertial loads scale with ω²); every speed is in the Datasets and in the archive (-o)."]
+
 
 def _cell(phasor: complex, scale: float, rtol: float) -> str:
     amplitude = abs(phasor)
@@ -31,8 +45,9 @@ def order_table(orders) -> str:
         f"Moments about ({ref[0]:g}, {ref[1]:g}, {ref[2]:g}) mm; amplitude (peak) and phase at θ = 0; "
         f"co/counter: rotating phasors of the transverse (y, z) vector.",
     ]
-    speeds = np.atleast_1d(orders["rpm"].values)
-    for i, rpm in enumerate(speeds):
+    printed, note = _speeds(orders)
+    lines += note
+    for i, rpm in printed:
         sel = orders.isel(speed=i) if "speed" in orders.dims else orders
         lines.append("")
         lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
@@ -100,8 +115,9 @@ def stars_table(stars) -> str:
         "Star: arms k·φ in degrees (×multiplicity). Amplitude (peak) and phase at θ = 0 of the co- and "
         "counter-rotating transverse phasors; roll = moment about the crank axis.",
     ]
-    speeds = np.atleast_1d(stars["rpm"].values)
-    for i, rpm in enumerate(speeds):
+    printed, note = _speeds(stars)
+    lines += note
+    for i, rpm in printed:
         sel = stars.isel(speed=i) if "speed" in stars.dims else stars
         lines.append("")
         lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
@@ -185,8 +201,9 @@ def verify_table(check) -> str:
     lines = [f"{attrs['engine']}: balancers verified against the exact time-domain model "
              f"({attrs['samples_per_rev']} samples/rev): {'PASSED' if attrs['passed'] == 'yes' else 'FAILED'}",
              f"Tolerance: {attrs['tolerance_rule']}."]
-    speeds = np.atleast_1d(check["rpm"].values)
-    for s, rpm in enumerate(speeds):
+    printed, note = _speeds(check)
+    lines += note
+    for s, rpm in printed:
         sel = check.isel(speed=s) if "speed" in check.dims else check
         lines += ["", f"Speed {rpm:.6g} rpm",
                   f"{'order':>5}  {'component':<15}{'before':>23}{'predicted':>23}{'exact residual':>23}"
@@ -232,8 +249,9 @@ def joints_table(joints) -> str:
                      f"{np.degrees(float(sel['min_transmission_angle'])):.4g}° at θ = "
                      f"{np.degrees(float(sel['min_transmission_theta'])):.5g}°; closure margin min sin²γ = "
                      f"{float(sel['discriminant_margin']):.4g}")
-    speeds = np.atleast_1d(joints["rpm"].values)
-    for s, rpm in enumerate(speeds):
+    printed, note = _speeds(joints)
+    lines += note
+    for s, rpm in printed:
         sel = joints.isel(speed=s) if "speed" in joints.dims else joints
         lines += ["", f"Speed {rpm:.6g} rpm", f"{'joint':<10}{'peak [N]':>12}{'at θ':>9}  acting"]
         for j, name in enumerate(sel["joint"].values):

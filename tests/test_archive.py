@@ -187,3 +187,17 @@ def test_open_archive_refuses_a_text_file(tmp_path, scene_file):
         hb.open_archive(empty)
     with pytest.raises(FileNotFoundError):
         hb.open_archive(tmp_path / "missing.nc")
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077])
+def test_written_files_get_the_umask_permissions(tree, tmp_path, umask):
+    """Written through a private temporary file, the result still gets the
+    permissions of a plainly created file."""
+    old = os.umask(umask)
+    try:
+        hb.save(tree, tmp_path / "a.nc")
+        hb.report(tree, tmp_path / "r.html")
+    finally:
+        os.umask(old)
+    for name in ("a.nc", "r.html"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o666 & ~umask

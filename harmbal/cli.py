@@ -99,6 +99,26 @@ def _parser() -> argparse.ArgumentParser:
                      help="style rules added after the built-in ones (house fonts, colours, widths)")
     rep.set_defaults(handler=_report)
 
+    from .bench import ENGINES, FAMILIES, LAMBDAS
+
+    bench = commands.add_parser(
+        "bench", help="measure what accuracy costs in time (error against a 50-digit reference, time per point)",
+        description="Run every model and numerical setting (samples per revolution, accuracy target, piston and "
+                    "con-rod models, order- vs time-domain path, FFT backend) on bundled engines at several "
+                    "rod ratios, measure the error of the order phasors against an mpmath reference at 50 digits "
+                    "and the time per operating point, and write accuracy.csv, accuracy.md and accuracy.svg "
+                    "(error against time) to DIR. See docs/accuracy.md.")
+    bench.add_argument("-o", "--output", type=Path, required=True, metavar="DIR", help="folder to write to")
+    bench.add_argument("--engines", type=_choices("engine", tuple(ENGINES)), default=list(ENGINES),
+                       metavar="E[,E...]", help=f"engines among {','.join(ENGINES)} (default all)")
+    bench.add_argument("--lambdas", type=_lambdas, default=list(LAMBDAS), metavar="L[,L...]",
+                       help=f"crank radius / rod length ratios in (0, 0.95] (default {','.join(map(str, LAMBDAS))})")
+    bench.add_argument("--families", type=_choices("family", FAMILIES), default=list(FAMILIES),
+                       metavar="F[,F...]", help=f"what to vary, among {','.join(FAMILIES)} (default all)")
+    bench.add_argument("--quick", action="store_true", help="one short timing run per case (rough times)")
+    bench.add_argument("--engines-dir", type=Path, help="folder with the bundled scenes (default datasets/engines)")
+    bench.set_defaults(handler=_bench)
+
     show = commands.add_parser(
         "show", help="print the tables stored in an archive",
         description="Print the free forces and moments per order from a harmbal netCDF archive, and the "
@@ -106,6 +126,29 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("archive", type=Path, help="netCDF archive written by 'harmbal run -o'")
     show.set_defaults(handler=_show)
     return parser
+
+
+def _bench(args) -> None:
+    from .bench import run, to_markdown, write
+
+    if args.output.exists() and not args.output.is_dir():
+        raise _BadInput(f"{args.output}: exists and is not a folder")
+    if not args.output.parent.is_dir():
+        raise _BadInput(f"{args.output}: its parent folder does not exist")
+    if args.engines_dir is not None and not args.engines_dir.is_dir():
+        raise _BadInput(f"{args.engines_dir}: no such folder")
+
+    def progress(message: str) -> None:
+        print(f"harmbal bench: {message}", file=sys.stderr, flush=True)
+
+    try:
+        rows = run(args.engines, args.lambdas, families=args.families, budget=0.002 if args.quick else 0.02,
+                   repeat=1 if args.quick else 3, engines_dir=args.engines_dir, progress=progress)
+    except FileNotFoundError as exc:
+        raise _BadInput(str(exc)) from None
+    print(to_markdown(rows))
+    for path in write(rows, args.output):
+        print(f"wrote {path}")
 
 
 def _run(args) -> None:
@@ -155,6 +198,28 @@ def _cancel_list(text: str) -> tuple[str, ...]:
     if not names or any(n not in CANCEL for n in names):
         raise argparse.ArgumentTypeError(f"not a list of {', '.join(CANCEL)}: {text!r}")
     return tuple(n for n in CANCEL if n in names)
+
+
+def _choices(what: str, allowed: tuple[str, ...]):
+    def parse(text: str) -> list[str]:
+        names = text.split(",")
+        unknown = [n for n in names if n not in allowed]
+        if unknown:
+            raise argparse.ArgumentTypeError(f"unknown {what} {', '.join(map(repr, unknown))}; choose among "
+                                             f"{', '.join(allowed)}")
+        return list(dict.fromkeys(names))
+
+    return parse
+
+
+def _lambdas(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a list of numbers: {text!r}") from None
+    if not all(0 < v <= 0.95 for v in values):
+        raise argparse.ArgumentTypeError(f"each λ = r/l must lie in (0, 0.95]: {text!r}")
+    return list(dict.fromkeys(values))
 
 
 def _share(text: str) -> float:

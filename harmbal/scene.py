@@ -438,6 +438,12 @@ class _Reader:
                   + self.balance_shafts(data.get("balance_shaft", []), sense)
                   + self.lanchester_pairs(data.get("lanchester_pair", [])))
         levers = self.lever_balancers(data.get("lever_balancer", []), sense)
+        fastest = max((abs(s.ratio) for s in shafts), default=0)
+        if (sampling.samples_per_rev is not None and "balancers" in model.effects
+                and sampling.samples_per_rev <= fastest + sampling.max_order):
+            self.fail("sampling.samples_per_rev", sampling.samples_per_rev,
+                      f"a balancer element turning at {fastest}× would alias into the orders kept: must be more "
+                      f"than its |ratio| + max_order = {fastest + sampling.max_order}")
         labels = [s.label for s in shafts] + [lever.label for lever in levers]
         for label in sorted({x for x in labels if labels.count(x) > 1}):
             self.fail("balancer elements", label, "two balancer elements have this label; labels must be unique")

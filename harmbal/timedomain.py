@@ -65,7 +65,9 @@ def choose_samples(scene: Scene) -> int:
     the first order for accelerations (ρ from
     :func:`harmbal.kinematics.decay_rate`); order k ≤ K is contaminated by
     orders ≥ N − K. The count is also at least 4K so that the spectral-tail
-    estimate in :func:`harmbal.order_spectrum` covers the orders of interest.
+    estimate in :func:`harmbal.order_spectrum` covers the orders of interest,
+    and above |n| + K for a balancer element turning at n× (a single harmonic
+    that would otherwise alias onto an order kept).
     """
     sampling = scene.sampling
     if sampling.samples_per_rev is not None:
@@ -74,9 +76,11 @@ def choose_samples(scene: Scene) -> int:
     cyls = scene.cylinders
     rho = float(np.max(decay_rate(np.array([c.crank_radius for c in cyls]), np.array([c.rod_length for c in cyls]),
                                   np.array([c.offset for c in cyls]))))
+    n = 4 * k
     if "balancers" in scene.model.effects:
         rho = max([rho] + [linkage_decay_rate(lever, scene.sense) for lever in scene.levers])
-    n = 4 * k
+        # A shaft at n× is one harmonic: it must not alias onto the orders kept (N − |n| > K).
+        n = max([n] + [abs(shaft.ratio) + k + 1 for shaft in scene.shafts])
     if rho > 0:
         m = k + 1
         while m * m * rho**m > sampling.accuracy and m < MAX_SAMPLES:

@@ -218,3 +218,21 @@ def test_balancers_effect_switches_every_element_off(monkeypatch):
     force, moment, _ = shaft_part(scene)
     assert float(np.abs(force).max()) < 1e-9 and float(np.abs(moment).max()) < 1e-9
     assert hb.stars(scene).force.sel(order=2).values.tolist() == [0, 0, 0]
+
+
+def test_a_fast_shaft_does_not_alias_onto_the_orders_kept():
+    """A shaft at 47× is one harmonic above every order kept (K = 12): orders
+    0 … 12 are those of the engine without it. With 48 samples per
+    revolution it would fold onto order 1, so the automatic sampling takes
+    more and a fixed count that low is refused."""
+    data = {"engine": {"name": "a", "speed": 100.0}, "geometry": {"crank_radius": 0.05, "rod_length": 0.2},
+            "piston": {"mass": 1.0}, "rod": {"mass": 0.5, "cg_from_big_end": 0.05, "inertia": 0.002},
+            "cylinder": [{}]}
+    bare = hb.order_spectrum(hb.simulate(hb.load_scene(data)))
+    fast = dict(data, balance_shaft=[{"ratio": 47, "unbalance": [{"unbalance": 1e-4, "angle": 0.0}]}])
+    with_shaft = hb.order_spectrum(hb.simulate(hb.load_scene(fast)))
+    assert with_shaft.attrs["samples_per_rev"] > 47 + 12
+    scale = float(np.abs(bare.force).max())
+    np.testing.assert_allclose(with_shaft.force.values, bare.force.values, rtol=0, atol=1e-13 * scale)
+    with pytest.raises(hb.SceneError, match="sampling.samples_per_rev.*alias"):
+        hb.load_scene(dict(fast, sampling={"samples_per_rev": 48}))

@@ -42,15 +42,50 @@ def main() -> None:
 
     import harmbal as hb
 
+    import numpy as np
+    import xarray as xr
+
+    from harmbal.analysis import scene_dataset
+    from harmbal.crank_stars import order_phasors
+    from harmbal.orders import phasors
+    from harmbal.timedomain import choose_samples, unit_speed_loads
+
     v8 = hb.load_scene(ENGINES / "v8-cross-plane.toml")
+    time_ds = hb.simulate(v8)
+    groups = {"/": xr.Dataset(), "/scene": scene_dataset(v8), "/time": time_ds,
+              "/orders": hb.order_spectrum(time_ds), "/stars": hb.stars(v8)}
+    n = choose_samples(v8)
+
+    def arrays_only():
+        force, moment = unit_speed_loads(v8, n).total(v8.reference_point)
+        return phasors(np.concatenate([force, moment]))
+
     rows = [
         ("load_scene(v8-cross-plane.toml)", median_seconds(lambda: hb.load_scene(ENGINES / "v8-cross-plane.toml"), args.repeat)),
-        ("simulate(V8)", median_seconds(lambda: hb.simulate(v8), args.repeat)),
         ("analyse(V8)", median_seconds(lambda: hb.analyse(v8), args.repeat)),
+        ("  simulate(V8): the exact loads as a Dataset", median_seconds(lambda: hb.simulate(v8), args.repeat)),
+        ("  order_spectrum: FFT, co/counter split, aliasing estimate, Dataset",
+         median_seconds(lambda: hb.order_spectrum(time_ds), args.repeat)),
+        ("  stars(V8): order domain, crank stars, firing, Dataset", median_seconds(lambda: hb.stars(v8), args.repeat)),
+        ("  scene Dataset", median_seconds(lambda: scene_dataset(v8), args.repeat)),
+        ("  DataTree.from_dict of the five groups", median_seconds(lambda: xr.DataTree.from_dict(groups), args.repeat)),
+        ("arithmetic floor: unit-speed loads + rFFT of the 6 sums (arrays)", median_seconds(arrays_only, args.repeat)),
+        ("order_phasors(V8) (arrays, order domain)", median_seconds(lambda: order_phasors(v8), args.repeat)),
     ]
     for name in ("v12.toml", "tractor-3cyl.toml"):
         scene = hb.load_scene(ENGINES / name)
         rows.append((f"analyse({name.removesuffix('.toml')})", median_seconds(lambda: hb.analyse(scene), args.repeat)))
+
+    sweep = v8.with_speeds(np.linspace(600, 8000, 10_000) * np.pi / 30)
+    sweep_repeat = max(3, args.repeat // 20)
+    rows += [
+        ("sweep, 10 000 speeds: analyse(V8)", median_seconds(lambda: hb.analyse(sweep), sweep_repeat)),
+        ("sweep, 10 000 speeds: order_spectrum(simulate(V8))",
+         median_seconds(lambda: hb.order_spectrum(hb.simulate(sweep)), sweep_repeat)),
+        ("sweep, 10 000 speeds: order_phasors × ω² (arrays)",
+         median_seconds(lambda: np.multiply.outer(np.square(sweep.speeds), order_phasors(sweep).force_cylinder.sum(0)),
+                        sweep_repeat)),
+    ]
 
     def run_cli():
         subprocess.run([sys.executable, "-m", "harmbal", "run", str(ENGINES / "tractor-3cyl.toml")],
@@ -63,11 +98,10 @@ def main() -> None:
     rows.append(("`harmbal run tractor-3cyl.toml` end to end", median_seconds(run_cli, args.runs)))
 
     print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} "
-          f"{platform.python_version()}, harmbal {hb.__version__}, samples/rev V8 = "
-          f"{hb.simulate(v8).attrs['samples_per_rev']}")
+          f"{platform.python_version()}, harmbal {hb.__version__}, samples/rev V8 = {n}")
     print("| operation | median time |\n|---|---|")
     for name, seconds in rows:
-        print(f"| {name} | {seconds * 1e3:.3f} ms |")
+        print(f"| {name.replace('  ', '— ', 1) if name.startswith('  ') else name} | {seconds * 1e3:.3f} ms |")
 
 
 if __name__ == "__main__":

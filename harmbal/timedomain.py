@@ -18,6 +18,7 @@ from ._version import __version__
 from .kinematics import crank_pin, decay_rate, slider_crank
 from .linkage import decay_rate as linkage_decay_rate
 from .linkage import lever_loads
+from .orders import ALIAS_SAFETY
 from .scene import EFFECTS, Scene
 
 AXES = ("x", "y", "z")
@@ -83,10 +84,11 @@ def choose_samples(scene: Scene) -> int:
         n = max([n] + [abs(shaft.ratio) + k + 1 for shaft in scene.shafts])
     if rho > 0:
         m = k + 1
-        while m * m * rho**m > sampling.accuracy and m < MAX_SAMPLES:
+        target = sampling.accuracy / ALIAS_SAFETY  # so that the estimate reported meets the target too
+        while m * m * rho**m > target and m < MAX_SAMPLES:
             m += 1
         n = max(n, m + k)
-        if m * m * rho**m > sampling.accuracy:
+        if m * m * rho**m > target:
             import warnings
 
             warnings.warn(f"{scene.source}: sampling.accuracy = {sampling.accuracy:g} needs more than {MAX_SAMPLES} "
@@ -240,7 +242,10 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         scene has several speeds, ``speed`` [rad/s] (with an ``rpm``
         coordinate). Variables ``force`` [N] and ``moment`` [N m] about the
         scene's reference point, and ``force_scale``/``moment_scale``, the sums
-        of the single bodies' peak loads, used to judge what is "zero".
+        of the single bodies' peak loads, used to judge what is "zero", and
+        ``aliasing_error_force``/``aliasing_error_moment`` (per axis), the
+        aliasing estimate of the order phasors summed body by body
+        (:func:`body_aliasing`).
     """
     import xarray as xr
 
@@ -257,6 +262,8 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
 
     force_scale = peak_sum(unit.force_cylinder, unit.force_crankshaft)
     moment_scale = peak_sum(moment_cyl, moment_crank)
+    alias_force = body_aliasing(unit.force_cylinder, unit.force_crankshaft, scene.sampling.max_order)
+    alias_moment = body_aliasing(moment_cyl, moment_crank, scene.sampling.max_order)
 
     lead, w2, coords = speed_axis(scene)
 
@@ -275,6 +282,10 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
                    {"units": "N m", "long_name": "shaking moment on the block about the reference point"}),
         "force_scale": (lead, w2 * force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
         "moment_scale": (lead, w2 * moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
+        "aliasing_error_force": (lead + ("axis",), scaled(alias_force), {
+            "units": "N", "long_name": "estimated aliasing error of the force phasors, body by body"}),
+        "aliasing_error_moment": (lead + ("axis",), scaled(alias_moment), {
+            "units": "N m", "long_name": "estimated aliasing error of the moment phasors, body by body"}),
     }
     if per_cylinder:
         coords["cylinder"] = ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"})
@@ -282,6 +293,24 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         data["force_cylinder"] = (dims, scaled(unit.force_cylinder), {"units": "N", "long_name": "force of one cylinder"})
         data["moment_cylinder"] = (dims, scaled(moment_cyl), {"units": "N m", "long_name": "moment of one cylinder"})
     return xr.Dataset(data, coords, attrs=attributes(scene, n))
+
+
+def body_aliasing(per_cylinder: np.ndarray, crankshaft: np.ndarray, max_order: int) -> np.ndarray:
+    """Aliasing estimate per axis of the orders ≤ ``max_order``, summed over
+    the cylinders (and the crankshaft's elements) without cancellation.
+
+    The tail of the *total* spectrum can mislead: an engine whose cylinders
+    cancel every order in the sampled tail band (a W24 keeps only multiples
+    of 12 in its moment) hides the orders beyond it that fold back onto the
+    orders kept. Each body's own spectrum decays smoothly, so the sum of their
+    tail estimates (:func:`harmbal.orders.aliasing_estimate`) bounds the
+    total's aliasing whatever cancels.
+    """
+    from .orders import aliasing_estimate, phasors
+
+    n = per_cylinder.shape[-1]
+    bodies = np.concatenate([per_cylinder, crankshaft[None]])  # (body, axis, angle)
+    return aliasing_estimate(np.abs(phasors(bodies)), n, max_order).sum(axis=0)
 
 
 def speed_axis(scene: Scene):
@@ -319,4 +348,6 @@ def attributes(scene: Scene, samples: int) -> dict:
         "rod_model": model.rod,
         "samples_per_rev": samples,
         "max_order": scene.sampling.max_order,
+        # The relative accuracy asked for; 0 when the scene fixes samples_per_rev instead.
+        "accuracy_target": float(scene.sampling.accuracy) if scene.sampling.samples_per_rev is None else 0.0,
     }

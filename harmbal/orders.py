@@ -76,14 +76,16 @@ ROUND_OFF = 4
 ALIAS_SAFETY = 4
 
 
-def aliasing_estimate(magnitudes: np.ndarray, samples: int, max_order: int) -> np.ndarray:
+def aliasing_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slowest_rate=0.0) -> np.ndarray:
     """Estimate the aliasing error of orders ≤ ``max_order`` from the tail.
 
     Order k of an N-sample spectrum is contaminated mostly by order N − k.
     The tail of the sampled band is fitted with a geometric decay through the
     largest magnitudes A₁ (at order i₁ in (N/4, 3N/8]) and A₂ (at i₂ in
     (3N/8, N/2]), ρ̂ = (A₂/A₁)^{1/(i₂−i₁)} ≤ 1, and extrapolated from i₂ to
-    order N − max_order; a factor ALIAS_SAFETY = 4 covers the further aliases N + k, 2N − k,
+    order N − max_order, the rate taken no faster than ``slowest_rate`` (the
+    decay rate the geometry gives, when known: a coarse tail band can itself
+    be aliased and fit too fast a decay); a factor ALIAS_SAFETY = 4 covers the further aliases N + k, 2N − k,
     … and the fit's error (with a factor 2 the estimate fell 1.3× short of
     the true error of a slider-crank's roll at λ = 0.7, against the 50-digit
     reference). The estimate never falls below the round-off floor,
@@ -95,6 +97,7 @@ def aliasing_estimate(magnitudes: np.ndarray, samples: int, max_order: int) -> n
     i1, i2 = p1 + band1.argmax(axis=-1), p2 + band2.argmax(axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         rate = np.where(a1 > 0, np.minimum(a2 / a1, 1.0), 0.0) ** (1.0 / np.maximum(i2 - i1, 1))
+    rate = np.maximum(rate, slowest_rate)
     extrapolated = ALIAS_SAFETY * a2 * rate ** np.maximum(samples - max_order - i2, 0)
     floor = ROUND_OFF * np.finfo(float).eps * magnitudes.max(axis=-1)
     return np.maximum(extrapolated, floor)

@@ -262,8 +262,9 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
 
     force_scale = peak_sum(unit.force_cylinder, unit.force_crankshaft)
     moment_scale = peak_sum(moment_cyl, moment_crank)
-    alias_force = body_aliasing(unit.force_cylinder, unit.force_crankshaft, scene.sampling.max_order)
-    alias_moment = body_aliasing(moment_cyl, moment_crank, scene.sampling.max_order)
+    rates = body_decay_rates(scene)
+    alias_force = body_aliasing(unit.force_cylinder, unit.force_crankshaft, scene.sampling.max_order, rates)
+    alias_moment = body_aliasing(moment_cyl, moment_crank, scene.sampling.max_order, rates)
 
     lead, w2, coords = speed_axis(scene)
 
@@ -295,7 +296,19 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     return xr.Dataset(data, coords, attrs=attributes(scene, n))
 
 
-def body_aliasing(per_cylinder: np.ndarray, crankshaft: np.ndarray, max_order: int) -> np.ndarray:
+def body_decay_rates(scene: Scene) -> np.ndarray:
+    """Decay rate ρ of the harmonics of each cylinder and of the crankshaft's
+    elements (pure harmonics, or a lever balancer's linkage), in the order of
+    :func:`body_aliasing`'s bodies."""
+    cyls = scene.cylinders
+    rho = decay_rate(np.array([c.crank_radius for c in cyls]), np.array([c.rod_length for c in cyls]),
+                     np.array([c.offset for c in cyls]))
+    levers = [linkage_decay_rate(lever, scene.sense) for lever in scene.levers] if "balancers" in scene.model.effects else []
+    return np.append(rho, max(levers, default=0.0))
+
+
+def body_aliasing(per_cylinder: np.ndarray, crankshaft: np.ndarray, max_order: int,
+                  rates: np.ndarray | float = 0.0) -> np.ndarray:
     """Aliasing estimate per axis of the orders ≤ ``max_order``, summed over
     the cylinders (and the crankshaft's elements) without cancellation.
 
@@ -304,13 +317,16 @@ def body_aliasing(per_cylinder: np.ndarray, crankshaft: np.ndarray, max_order: i
     of 12 in its moment) hides the orders beyond it that fold back onto the
     orders kept. Each body's own spectrum decays smoothly, so the sum of their
     tail estimates (:func:`harmbal.orders.aliasing_estimate`) bounds the
-    total's aliasing whatever cancels.
+    total's aliasing whatever cancels. ``rates`` (per body, from
+    :func:`body_decay_rates`) keeps each fit from decaying faster than the
+    geometry allows.
     """
     from .orders import aliasing_estimate, phasors
 
     n = per_cylinder.shape[-1]
     bodies = np.concatenate([per_cylinder, crankshaft[None]])  # (body, axis, angle)
-    return aliasing_estimate(np.abs(phasors(bodies)), n, max_order).sum(axis=0)
+    slowest = np.broadcast_to(np.asarray(rates, dtype=float), bodies.shape[:1])[:, None]
+    return aliasing_estimate(np.abs(phasors(bodies)), n, max_order, slowest).sum(axis=0)
 
 
 def speed_axis(scene: Scene):

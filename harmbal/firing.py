@@ -152,6 +152,6 @@ def cylinder_firing(cylinders, cycle: int, order: tuple[int, ...] | None = None)
 
 def _sorted(angles: np.ndarray) -> tuple[int, ...]:
     """Cylinder indices by angle (ties by index), rotated to start at 0."""
-    sequence = sorted(range(len(angles)), key=lambda i: (round(float(angles[i]) / (10 * ANGLE_TOL)), i))
+    sequence = sorted(range(len(angles)), key=lambda i: (round(float(angles[i]) / ANGLE_TOL), i))
     start = sequence.index(0)
     return tuple(sequence[start:] + sequence[:start])

@@ -96,9 +96,12 @@ def aliasing_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slow
     a1, a2 = band1.max(axis=-1), band2.max(axis=-1)
     i1, i2 = p1 + band1.argmax(axis=-1), p2 + band2.argmax(axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        rate = np.where(a1 > 0, np.minimum(a2 / a1, 1.0), 0.0) ** (1.0 / np.maximum(i2 - i1, 1))
-    rate = np.maximum(rate, slowest_rate)
-    extrapolated = ALIAS_SAFETY * a2 * rate ** np.maximum(samples - max_order - i2, 0)
+        fitted = np.where(a1 > 0, np.minimum(a2 / a1, 1.0), 0.0) ** (1.0 / np.maximum(i2 - i1, 1))
+    rate = np.maximum(fitted, slowest_rate)
+    # Where the geometry's slow decay overrides the fit, the harmonics' polynomial growth (n² for
+    # accelerations, one more power for the roll's products) is not in the fit either.
+    growth = np.where(slowest_rate > fitted, (np.maximum(samples - max_order, i2) / i2) ** 3, 1.0)
+    extrapolated = ALIAS_SAFETY * a2 * growth * rate ** np.maximum(samples - max_order - i2, 0)
     floor = ROUND_OFF * np.finfo(float).eps * magnitudes.max(axis=-1)
     return np.maximum(extrapolated, floor)
 

@@ -917,7 +917,12 @@ class _Reader:
         e = self.quantity(geometry, "pin_offset", gwhere.get("pin_offset", "geometry"), "length", default=0.0)
         h = self.quantity(geometry, "cylinder_offset", gwhere.get("cylinder_offset", "geometry"), "length", default=0.0)
         if all(math.isfinite(v) for v in (r, l, e, h)) and r > 0 and l > 0 and not l > r + abs(e + h):
-            self.fail(_join(gwhere["rod_length"], "rod_length"), geometry["rod_length"],
+            own = sorted(k for k, w in gwhere.items() if w != "geometry")
+            if own and "rod_length" not in own:  # the cylinder's own radius or offsets break it: name them
+                key, value = _join(path, "geometry"), {k: geometry[k] for k in own}
+            else:
+                key, value = _join(gwhere["rod_length"], "rod_length"), geometry["rod_length"]
+            self.fail(key, value,
                       f"the crank train cannot assemble: rod length {l * 1e3:.6g} mm must exceed crank radius "
                       f"+ |pin offset + cylinder offset| = {(r + abs(e + h)) * 1e3:.6g} mm")
 

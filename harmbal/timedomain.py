@@ -242,7 +242,8 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         scene has several speeds, ``speed`` [rad/s] (with an ``rpm``
         coordinate). Variables ``force`` [N] and ``moment`` [N m] about the
         scene's reference point, and ``force_scale``/``moment_scale``, the sums
-        of the single bodies' peak loads, used to judge what is "zero", and
+        of bounds on the single bodies' peak loads (the same as
+        :func:`harmbal.stars`'), used to judge what is "zero", and
         ``aliasing_error_force``/``aliasing_error_moment`` (per axis), the
         aliasing estimate of the order phasors summed body by body
         (:func:`body_aliasing`).
@@ -257,11 +258,13 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     force = unit.force_cylinder.sum(axis=0) + unit.force_crankshaft
     moment = moment_cyl.sum(axis=0) + moment_crank
 
-    def peak_sum(per_cyl, crank):
-        return float(np.linalg.norm(per_cyl, axis=1).max(axis=-1).sum() + np.linalg.norm(crank, axis=0).max())
+    # One definition of the load scale for both paths (the order domain's bound on each body's
+    # peak), so that a component is "balanced" in harmbal run exactly when it is in harmbal stars.
+    from .crank_stars import order_phasors
 
-    force_scale = peak_sum(unit.force_cylinder, unit.force_crankshaft)
-    moment_scale = peak_sum(moment_cyl, moment_crank)
+    bounds = order_phasors(scene, samples_per_rev=n)
+    force_scale = float(bounds.peak_force.sum() + bounds.crankshaft_peak_force)
+    moment_scale = float(bounds.peak_moment.sum() + bounds.crankshaft_peak_moment)
     rates = body_decay_rates(scene)
     alias_force = body_aliasing(unit.force_cylinder, unit.force_crankshaft, scene.sampling.max_order, rates)
     alias_moment = body_aliasing(moment_cyl, moment_crank, scene.sampling.max_order, rates)

@@ -838,11 +838,6 @@ def test_classification_flips_at_the_threshold(c, tmp_path, capsys):
     assert (cells[0] is not None) == free and ("F co" in verdict) == free
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "BUG: the two paths use different moment scales. The time domain takes each body's sampled peak "
-    "|M_i(θ)|, but order_phasors bounds it by max|roll| + lever·max|F| (and adds throw unbalances "
-    "arithmetically to the force peak). A component between the two thresholds is free in "
-    "`harmbal run` and balanced in `harmbal stars`"))
 def test_moment_classification_agrees_between_the_paths(tmp_path, capsys):
     """Boxer twin in the plane x = 0.05 (transverse moments cancel) plus a
     crankshaft couple (δ at x = ±0.1, 180° apart): a pure first-order

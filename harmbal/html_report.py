@@ -189,8 +189,9 @@ def _traces(page: _Page, scene, tree) -> None:
 
 
 def _balancers(page: _Page, scene, tree) -> None:
-    from .plots import phasing_figure
     from .design_spec import signed_ratio
+    from .plots import phasing_figure
+    from .tables import targeted_rows
 
     if not scene.shafts and "verify" not in tree.children:
         return
@@ -213,16 +214,10 @@ def _balancers(page: _Page, scene, tree) -> None:
                     "its direction (+z up, the direction of rotation to the right).", "phasing")
     if "verify" in tree.children:
         check = _first_speed(tree["verify"].ds)
-        vrows = []
-        for k in check["order"].values:
-            for name in check["component"].values:
-                if not bool(check["targeted"].sel(component=name)):
-                    continue
-                row = check.sel(order=k, component=name)
-                units = str(row["component_units"].values)
-                vrows.append([f"order {int(k)} {str(name).replace('_', ' ')}", f"{abs(complex(row['before'])):.5g} {units}",
-                              f"{abs(complex(row['predicted'])):.3g} {units}", f"{abs(complex(row['exact'])):.3g} {units}",
-                              f"{float(row['tolerance']):.2g} {units}", "pass" if bool(row["passed"]) else "FAIL"])
+        vrows = [[f"order {k} {name.replace('_', ' ')}", f"{abs(complex(row['before'])):.5g} {units}",
+                  f"{abs(complex(row['predicted'])):.3g} {units}", f"{abs(complex(row['exact'])):.3g} {units}",
+                  f"{float(row['tolerance']):.2g} {units}", "pass" if bool(row["passed"]) else "FAIL"]
+                 for k, name, row, units in targeted_rows(check)]
         page.add(f"<h3>Verification by the exact model: {'passed' if check.attrs['passed'] == 'yes' else 'FAILED'}"
                  "</h3>" + _table(["target", "before", "predicted", "exact residual", "tolerance", "result"], vrows, 1))
     page.add("</section>")

@@ -10,15 +10,28 @@ from .orders import is_balanced
 PRINTED_SPEEDS = 8
 
 
-def _speeds(ds) -> tuple[list[tuple[int, float]], list[str]]:
-    """(index, rpm) of the speeds to print, and a note when some are left out."""
+def _at_speeds(ds, lines: list[str]):
+    """The Dataset at each speed to print, with its rpm; notes in ``lines``
+    the speeds a long sweep leaves out (all but the lowest and the highest)."""
     rpm = np.atleast_1d(ds["rpm"].values)
-    if rpm.size <= PRINTED_SPEEDS:
-        return list(enumerate(rpm)), []
-    ends = [int(np.argmin(rpm)), int(np.argmax(rpm))]
-    return [(i, rpm[i]) for i in ends], [
-        "", f"{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the tables show the lowest and the "
-        "highest (inertial loads scale with ω²); every speed is in the Datasets and in the archive (-o)."]
+    indices = range(rpm.size)
+    if rpm.size > PRINTED_SPEEDS:
+        indices = [int(np.argmin(rpm)), int(np.argmax(rpm))]
+        lines += ["", f"{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the tables show the lowest "
+                  "and the highest (inertial loads scale with ω²); every speed is in the Datasets and in the "
+                  "archive (-o)."]
+    for i in indices:
+        yield (ds.isel(speed=i) if "speed" in ds.dims else ds), rpm[i]
+
+
+def targeted_rows(check):
+    """(order, component, row, units) of every targeted row of a
+    :func:`harmbal.verify` Dataset at one speed."""
+    for k in check["order"].values:
+        for name in check["component"].values:
+            if bool(check["targeted"].sel(component=name)):
+                row = check.sel(order=k, component=name)
+                yield int(k), str(name), row, str(row["component_units"].values)
 
 
 def _cell(phasor: complex, scale: float, rtol: float) -> str:
@@ -45,10 +58,7 @@ def order_table(orders) -> str:
         f"Moments about ({ref[0]:g}, {ref[1]:g}, {ref[2]:g}) mm; amplitude (peak) and phase at θ = 0; "
         f"co/counter: rotating phasors of the transverse (y, z) vector.",
     ]
-    printed, note = _speeds(orders)
-    lines += note
-    for i, rpm in printed:
-        sel = orders.isel(speed=i) if "speed" in orders.dims else orders
+    for sel, rpm in _at_speeds(orders, lines):
         lines.append("")
         lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
         for name, units, label in (("force", "N", "Free force"), ("moment", "N m", "Free moment")):
@@ -115,10 +125,7 @@ def stars_table(stars) -> str:
         "Star: arms k·φ in degrees (×multiplicity). Amplitude (peak) and phase at θ = 0 of the co- and "
         "counter-rotating transverse phasors; roll = moment about the crank axis.",
     ]
-    printed, note = _speeds(stars)
-    lines += note
-    for i, rpm in printed:
-        sel = stars.isel(speed=i) if "speed" in stars.dims else stars
+    for sel, rpm in _at_speeds(stars, lines):
         lines.append("")
         lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
         f_scale, m_scale = float(sel["force_scale"]), float(sel["moment_scale"])
@@ -201,23 +208,15 @@ def verify_table(check) -> str:
     lines = [f"{attrs['engine']}: balancers verified against the exact time-domain model "
              f"({attrs['samples_per_rev']} samples/rev): {'PASSED' if attrs['passed'] == 'yes' else 'FAILED'}",
              f"Tolerance: {attrs['tolerance_rule']}."]
-    printed, note = _speeds(check)
-    lines += note
-    for s, rpm in printed:
-        sel = check.isel(speed=s) if "speed" in check.dims else check
+    for sel, rpm in _at_speeds(check, lines):
         lines += ["", f"Speed {rpm:.6g} rpm",
                   f"{'order':>5}  {'component':<15}{'before':>23}{'predicted':>23}{'exact residual':>23}"
                   f"{'|Δ|':>11}{'tolerance':>11}  result"]
-        for k in sel["order"].values:
-            for name in sel["component"].values:
-                if not bool(sel["targeted"].sel(component=name)):
-                    continue
-                row = sel.sel(order=k, component=name)
-                units = str(row["component_units"].values)
-                lines.append(_component_label(int(k), str(name)) + _phasor(complex(row["before"]), units)
-                             + _phasor(complex(row["predicted"]), units) + _phasor(complex(row["exact"]), units)
-                             + f"{float(row['difference']):>11.2g}{float(row['tolerance']):>11.2g}  "
-                             + ("pass" if bool(row["passed"]) else "FAIL"))
+        for k, name, row, units in targeted_rows(sel):
+            lines.append(_component_label(k, name) + _phasor(complex(row["before"]), units)
+                         + _phasor(complex(row["predicted"]), units) + _phasor(complex(row["exact"]), units)
+                         + f"{float(row['difference']):>11.2g}{float(row['tolerance']):>11.2g}  "
+                         + ("pass" if bool(row["passed"]) else "FAIL"))
         lines += ["", f"{'':>5}  {'per axis':<15}{'before':>14}{'after':>14}{'removed':>10}"]
         for name, units in (("force", "N"), ("moment", "N m")):
             for axis in sel["axis"].values:
@@ -249,10 +248,7 @@ def joints_table(joints) -> str:
                      f"{np.degrees(float(sel['min_transmission_angle'])):.4g}° at θ = "
                      f"{np.degrees(float(sel['min_transmission_theta'])):.5g}°; closure margin min sin²γ = "
                      f"{float(sel['discriminant_margin']):.4g}")
-    printed, note = _speeds(joints)
-    lines += note
-    for s, rpm in printed:
-        sel = joints.isel(speed=s) if "speed" in joints.dims else joints
+    for sel, rpm in _at_speeds(joints, lines):
         lines += ["", f"Speed {rpm:.6g} rpm", f"{'joint':<10}{'peak [N]':>12}{'at θ':>9}  acting"]
         for j, name in enumerate(sel["joint"].values):
             lines.append(f"{str(name):<10}{float(sel['joint_force_peak'].values[j]):>12.5g}"

@@ -74,12 +74,9 @@ def choose_samples(scene: Scene) -> int:
     if sampling.samples_per_rev is not None:
         return sampling.samples_per_rev
     k = sampling.max_order
-    cyls = scene.cylinders
-    rho = float(np.max(decay_rate(np.array([c.crank_radius for c in cyls]), np.array([c.rod_length for c in cyls]),
-                                  np.array([c.offset for c in cyls]))))
+    rho = float(body_decay_rates(scene).max())
     n = 4 * k
     if "balancers" in scene.model.effects:
-        rho = max([rho] + [linkage_decay_rate(lever, scene.sense) for lever in scene.levers])
         # A shaft at n× is one harmonic: it must not alias onto the orders kept (N − |n| > K).
         n = max([n] + [abs(shaft.ratio) + k + 1 for shaft in scene.shafts])
     if rho > 0:

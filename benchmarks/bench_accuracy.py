@@ -29,8 +29,8 @@ def main() -> None:
     args = parser.parse_args()
 
     from harmbal import bench
-    from harmbal.files import atomic_path
-    from harmbal.plots import accuracy_figure, save_figure
+    from harmbal.io.files import atomic_path
+    from harmbal.reporting.plots import accuracy_figure, save_figure
 
     rows = bench.run(budget=args.budget, repeat=args.repeat, engines_dir=ROOT / "datasets" / "engines",
                      progress=lambda message: print(message, file=sys.stderr, flush=True))

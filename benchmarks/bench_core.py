@@ -46,9 +46,10 @@ def main() -> None:
     import xarray as xr
 
     from harmbal.analysis import scene_dataset
-    from harmbal.crank_stars import order_phasors
-    from harmbal.orders import phasors
-    from harmbal.timedomain import choose_samples, unit_speed_loads
+    from harmbal.orders.phasors import order_phasors
+    from harmbal.orders.spectrum import phasors
+    from harmbal.model.sampling import choose_samples
+    from harmbal.model.evaluate import unit_speed_loads
 
     v8 = hb.load_scene(ENGINES / "v8-cross-plane.toml")
     time_ds = hb.simulate(v8)

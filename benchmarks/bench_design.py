@@ -62,10 +62,10 @@ def thesis_sweep(stem: str = "tractor-3cyl-balanced") -> tuple[float, float, flo
     counterweight couple of the scene's [design] (two planes, no net force)."""
     import numpy as np
 
-    from harmbal.balance_design import _element_loads
-    from harmbal.design_spec import PEAK_SAMPLES
-    from harmbal.design_spec import Placement
-    from harmbal.timedomain import moment_about, unit_speed_loads
+    from harmbal.balance.design import _element_loads
+    from harmbal.scene.requests import PEAK_SAMPLES
+    from harmbal.scene.requests import Placement
+    from harmbal.model.evaluate import moment_about, unit_speed_loads
 
     s = scene(stem)
     x1, x2 = s.design.candidates[0].planes
@@ -96,8 +96,8 @@ def linear_programme(stem: str = "tractor-3cyl-balanced") -> float:
     """The peak objective [N m] of harmbal's design, re-evaluated on the same angles."""
     import numpy as np
 
-    from harmbal.design_spec import PEAK_SAMPLES
-    from harmbal.timedomain import moment_about, unit_speed_loads
+    from harmbal.scene.requests import PEAK_SAMPLES
+    from harmbal.model.evaluate import moment_about, unit_speed_loads
 
     designed = _design(stem).scene
     unit = unit_speed_loads(designed, PEAK_SAMPLES)

@@ -46,7 +46,7 @@ def scene():
 def _kinematics():
     import numpy as np
 
-    from harmbal.linkage import four_bar, link_loads
+    from harmbal.model.linkage import four_bar, link_loads
 
     s = scene()
     lever = s.levers[0]
@@ -67,7 +67,7 @@ def _analyse():
 
 
 def _design(method: str):
-    from harmbal.lever_design import design_lever
+    from harmbal.balance.lever import design_lever
 
     return design_lever(scene(), method=method)
 

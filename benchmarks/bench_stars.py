@@ -1,7 +1,7 @@
 """Time the order-domain path against the time-domain path for V12 and W24.
 
-Order domain: ``harmbal.crank_stars.order_phasors(scene)`` (per-cylinder phasors by
-the shift theorem, plain arrays) and ``harmbal.crank_stars.stars(scene)`` (that plus
+Order domain: ``harmbal.orders.phasors.order_phasors(scene)`` (per-cylinder phasors by
+the shift theorem, plain arrays) and ``harmbal.views.stars.stars(scene)`` (that plus
 crank stars, firing and the xarray Dataset). Time domain:
 ``order_spectrum(simulate(scene))`` (exact loads of every cylinder at every
 angle, FFT of the sums, two Datasets), and for reference the same arithmetic
@@ -44,27 +44,28 @@ def scene(engine: str):
 
 
 def _order_phasors(s, n):
-    from harmbal.crank_stars import order_phasors
+    from harmbal.orders.phasors import order_phasors
 
     return order_phasors(s, samples_per_rev=n)
 
 
 def _stars(s, n):
-    from harmbal.crank_stars import stars
+    from harmbal.views.stars import stars
 
     return stars(s, samples_per_rev=n)
 
 
 def _time_domain(s, n):
-    from harmbal.orders import order_spectrum
-    from harmbal.timedomain import simulate
+    from harmbal.views.orders import order_spectrum
+    from harmbal.views.time import simulate
 
     return order_spectrum(simulate(s, samples_per_rev=n))
 
 
 def _time_domain_arrays(s, n):
-    from harmbal.orders import phasors
-    from harmbal.timedomain import choose_samples, unit_speed_loads
+    from harmbal.orders.spectrum import phasors
+    from harmbal.model.sampling import choose_samples
+    from harmbal.model.evaluate import unit_speed_loads
 
     unit = unit_speed_loads(s, n or choose_samples(s))
     kmax = s.sampling.max_order
@@ -82,7 +83,7 @@ PATHS = {
 
 
 def samples_used(engine: str, samples: int | None) -> int:
-    from harmbal.timedomain import choose_samples
+    from harmbal.model.sampling import choose_samples
 
     return samples or choose_samples(scene(engine))
 

@@ -5,7 +5,7 @@ Run from anywhere:
     python docs/make_figures.py
 
 Writes ``docs/figures/stars-<dataset>.svg`` for the bundled datasets below,
-with harmbal itself (``harmbal.stars`` and ``harmbal.plots``), exactly what
+with harmbal itself (``harmbal.stars`` and ``harmbal.reporting.plots``), exactly what
 ``harmbal stars datasets/engines/<dataset>.toml --plot FILE [--orders ...]``
 draws. The SVGs are deterministic (fixed hash salt, no date, text as text),
 so rerunning the script changes nothing unless harmbal's numbers or drawing
@@ -42,7 +42,7 @@ DATASETS: dict[str, tuple[int, ...] | None] = {
 def main() -> list[Path]:
     """Write every figure; returns the paths written."""
     import harmbal as hb
-    from harmbal.plots import save_figure, stars_figure
+    from harmbal.reporting.plots import save_figure, stars_figure
 
     FIGURES.mkdir(parents=True, exist_ok=True)
     written = []

@@ -65,7 +65,7 @@ def _amplitude(value: complex, free: bool) -> str:
 
 def layout_section(name: str, note: str) -> str:
     import harmbal as hb
-    from harmbal.tables import _arms, verdict
+    from harmbal.reporting.tables import _arms, verdict
 
     scene = hb.load_scene(ROOT / "datasets" / "engines" / f"{name}.toml")
     ds = hb.stars(scene)

@@ -5,8 +5,8 @@ Run from anywhere:
     python docs/make_lever_figures.py
 
 Writes into ``docs/figures/``, from ``datasets/engines/lever-single.toml`` and
-harmbal itself (``harmbal.linkage.four_bar``, ``harmbal.joints``,
-``harmbal.simulate``, ``harmbal.stars``, ``harmbal.lever_design``):
+harmbal itself (``harmbal.model.linkage.four_bar``, ``harmbal.joints``,
+``harmbal.simulate``, ``harmbal.stars``, ``harmbal.balance.lever``):
 
 * ``lever-sketch.svg``: the mechanism at four crank angles, with the paths of
   the joints and of the balance weight's CG (start and optimum);
@@ -26,7 +26,7 @@ prescribed masses, the toggle table, the sampling cap near toggle, the other
 objectives and the compass search), so that the page can be checked against
 the code. The SVGs are
 deterministic (fixed hash salt, no date, text as text; written by
-``harmbal.plots.save_figure``), so rerunning the script changes nothing
+``harmbal.reporting.plots.save_figure``), so rerunning the script changes nothing
 unless harmbal's numbers or drawing do.
 """
 
@@ -69,7 +69,7 @@ FIT_SAMPLES, FIT_FROM, FIT_FLOOR = 4096, 5, 1e-10
 
 #: Pivot y [mm] so close to toggle (the largest |A→C| = |A| + r_C just below
 #: a + b = 180 mm; the loop stops closing at y = 153.5415… mm) that the
-#: default accuracy would need more than harmbal.timedomain.MAX_SAMPLES
+#: default accuracy would need more than harmbal.model.sampling.MAX_SAMPLES
 #: samples per revolution.
 CAP_PIVOT = 153.54152
 
@@ -79,7 +79,7 @@ CRANK_UNBALANCE = 12
 
 
 def _colours():
-    from harmbal.plots import OKABE_ITO
+    from harmbal.reporting.plots import OKABE_ITO
 
     return OKABE_ITO
 
@@ -92,7 +92,7 @@ def _figure(**kwargs):
 
 def _engine(w, sense):
     """(y, z) in mm of w-plane points."""
-    from harmbal.linkage import to_engine
+    from harmbal.model.linkage import to_engine
 
     y, z = to_engine(np.asarray(w, dtype=complex), sense)
     return y * 1e3, z * 1e3
@@ -116,8 +116,8 @@ def sketch(scene, design) -> object:
     Drawn for the dataset's single upright cylinder (bank 0)."""
     from matplotlib.patches import Rectangle
 
-    from harmbal.kinematics import slider_crank
-    from harmbal.linkage import four_bar
+    from harmbal.model.kinematics import slider_crank
+    from harmbal.model.linkage import four_bar
 
     c = _colours()
     sense = scene.sense
@@ -292,7 +292,7 @@ def orders(scene, design) -> tuple[object, dict]:
 def mass_sweep(scene, design) -> tuple[object, list, list]:
     """The criterion with the CG optimised for each prescribed mass."""
     import harmbal as hb
-    from harmbal.lever_design import design_lever
+    from harmbal.balance.lever import design_lever
 
     c = _colours()
 
@@ -351,8 +351,9 @@ def toggle_table() -> list[tuple]:
     """The lever moved towards toggle: transmission angle, decay rate, default
     sampling, peak joint forces and the fitted decay, per pivot position."""
     import harmbal as hb
-    from harmbal.linkage import closure, decay_rate
-    from harmbal.timedomain import choose_samples
+    from harmbal.scene.elements import closure
+    from harmbal.model.linkage import decay_rate
+    from harmbal.model.sampling import choose_samples
 
     rows = []
     for y in TOGGLE_PIVOTS:
@@ -391,8 +392,9 @@ def accuracy_cap() -> tuple:
     import warnings
 
     import harmbal as hb
-    from harmbal.linkage import closure, decay_rate
-    from harmbal.timedomain import choose_samples
+    from harmbal.scene.elements import closure
+    from harmbal.model.linkage import decay_rate
+    from harmbal.model.sampling import choose_samples
 
     scene, caught = _variant(CAP_PIVOT)
     with warnings.catch_warnings(record=True) as more:
@@ -413,7 +415,7 @@ def crank_counterweight(scene, design) -> tuple:
     import tomllib
 
     import harmbal as hb
-    from harmbal.lever_design import design_lever
+    from harmbal.balance.lever import design_lever
 
     raw = tomllib.loads(SCENE.read_text(encoding="utf-8"))
     lever = raw["lever_balancer"][0]
@@ -433,8 +435,8 @@ def main() -> list[Path]:
     import warnings
 
     import harmbal as hb
-    from harmbal.lever_design import design_lever
-    from harmbal.plots import save_figure
+    from harmbal.balance.lever import design_lever
+    from harmbal.reporting.plots import save_figure
 
     FIGURES.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings():

@@ -36,7 +36,7 @@ def main() -> None:
 
     binary = os.environ.get("HARMBAL_CHROMIUM") or shutil.which("chromium")
     with tempfile.TemporaryDirectory() as tmp:
-        page_file = args.html or Path(tmp) / "report.html"
+        page_file = args.html or Path(tmp) / "reporting.html"
         hb.report(hb.analyse(hb.load_scene(SCENE)), page_file, source="datasets/engines/inline-3-balanced.toml")
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=binary, args=FLAGS)

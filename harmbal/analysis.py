@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ._version import __version__
-from .orders import order_spectrum
+from .views.orders import order_spectrum
 from .scene import Scene
-from .crank_stars import stars
-from .timedomain import CONVENTIONS, simulate
+from .views.stars import stars
+from .labelled import CONVENTIONS
+from .views.time import simulate
 
 
 def scene_dataset(scene: Scene):
@@ -81,11 +82,11 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     groups = {"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
               "/stars": stars(scene, backend=backend)}
     if scene.levers:
-        from .mechanism import joints
+        from .model.mechanism import joints
 
         groups["/joints"] = joints(scene)
     if scene.verify is not None:
-        from .balance_verify import verify
+        from .balance.verify import verify
 
         groups["/verify"] = verify(scene, backend=backend)
     return xr.DataTree.from_dict(groups)

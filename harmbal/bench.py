@@ -90,8 +90,9 @@ def _time_domain(scene, backend: str = "scipy", workers: int | None = None):
     FFT of the six summed signals, scaled to the scene's speed (what
     :func:`harmbal.order_spectrum` of :func:`harmbal.simulate` computes,
     without building the Datasets)."""
-    from .orders import phasors
-    from .timedomain import choose_samples, unit_speed_loads
+    from .orders.spectrum import phasors
+    from .model.sampling import choose_samples
+    from .model.evaluate import unit_speed_loads
 
     n, kmax, w2 = choose_samples(scene), scene.sampling.max_order, scene.speeds[0] ** 2
 
@@ -104,8 +105,8 @@ def _time_domain(scene, backend: str = "scipy", workers: int | None = None):
 
 
 def _datasets(scene):
-    from .orders import order_spectrum
-    from .timedomain import simulate
+    from .views.orders import order_spectrum
+    from .views.time import simulate
 
     def run():
         orders = order_spectrum(simulate(scene))
@@ -116,9 +117,10 @@ def _datasets(scene):
 
 def cases(scene) -> list[Case]:
     """The settings measured on one engine (each differs from the default in one thing)."""
-    from .crank_stars import order_phasors
-    from .orders import phasors
-    from .timedomain import choose_samples, unit_speed_loads
+    from .orders.phasors import order_phasors
+    from .orders.spectrum import phasors
+    from .model.sampling import choose_samples
+    from .model.evaluate import unit_speed_loads
 
     default_samples = choose_samples(scene)
     out = []
@@ -292,8 +294,8 @@ def _duration(s: float) -> str:
 
 def write(rows: list[dict], directory: Path) -> list[Path]:
     """``accuracy.csv``, ``accuracy.md`` and ``accuracy.svg`` in ``directory`` (atomically)."""
-    from .files import atomic_path
-    from .plots import accuracy_figure, save_figure
+    from .io.files import atomic_path
+    from .reporting.plots import accuracy_figure, save_figure
 
     directory.mkdir(parents=True, exist_ok=True)
     written = []

@@ -153,8 +153,8 @@ def _bench(args) -> None:
 
 def _run(args) -> None:
     from .analysis import analyse
-    from .archive import save
-    from .tables import order_table
+    from .io.archive import save
+    from .reporting.tables import order_table
 
     if args.output is not None:
         _check_output(args.output)
@@ -162,15 +162,15 @@ def _run(args) -> None:
     tree = analyse(scene, backend=args.backend)
     print(order_table(tree["orders"].ds))
     if "verify" in tree.children:
-        from .tables import verify_table
+        from .reporting.tables import verify_table
 
         print()
         print(verify_table(tree["verify"].ds))
     if "joints" in tree.children:
         import dataclasses
 
-        from .crank_stars import stars
-        from .tables import joints_table, lever_orders_table
+        from .views.stars import stars
+        from .reporting.tables import joints_table, lever_orders_table
 
         print()
         print(lever_orders_table(tree["stars"].ds, stars(dataclasses.replace(scene, levers=()))))
@@ -192,7 +192,7 @@ def _order_list(text: str) -> list[int]:
 
 
 def _cancel_list(text: str) -> tuple[str, ...]:
-    from .design_spec import CANCEL
+    from .scene.requests import CANCEL
 
     names = tuple(text.split(","))
     if not names or any(n not in CANCEL for n in names):
@@ -233,11 +233,12 @@ def _share(text: str) -> float:
 
 
 def _design(args) -> None:
-    from .balance_design import DesignError, design
-    from .balance_verify import verify
-    from .design_spec import LeverDesignRequest
-    from .lever_design import design_lever
-    from .tables import design_table, lever_design_table, verify_table
+    from .balance.solvers import DesignError
+    from .balance.design import design
+    from .balance.verify import verify
+    from .scene.requests import LeverDesignRequest
+    from .balance.lever import design_lever
+    from .reporting.tables import design_table, lever_design_table, verify_table
 
     _check_output(args.output, (".toml",), "the design is written as a scene file (.toml)")
     if args.output.resolve() == args.scene.resolve():
@@ -278,7 +279,7 @@ def _check_output(path: Path, suffixes: tuple[str, ...] = (), rule: str = "") ->
 
 
 def _write_scene(path: Path, text: str) -> None:
-    from .files import atomic_path
+    from .io.files import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
@@ -288,9 +289,9 @@ def _write_scene(path: Path, text: str) -> None:
 def _verify(args) -> None:
     import dataclasses
 
-    from .balance_verify import verify
-    from .design_spec import VerifyRequest
-    from .tables import verify_table
+    from .balance.verify import verify
+    from .scene.requests import VerifyRequest
+    from .reporting.tables import verify_table
 
     scene = _load(args.scene)
     request = scene.verify
@@ -327,8 +328,8 @@ class _Disagreement(Exception):
 
 
 def _stars(args) -> None:
-    from .crank_stars import stars, verify_orders
-    from .tables import stars_table, verification_table
+    from .views.stars import stars, verify_orders
+    from .reporting.tables import stars_table, verification_table
 
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
@@ -342,7 +343,7 @@ def _stars(args) -> None:
         print()
         print(verification_table(check))
     if args.plot is not None:
-        from .plots import save_figure, stars_figure
+        from .reporting.plots import save_figure, stars_figure
 
         save_figure(stars_figure(ds, orders=args.orders), args.plot)
         print(f"\nwrote {args.plot}")
@@ -351,7 +352,7 @@ def _stars(args) -> None:
 
 
 def _report(args) -> None:
-    from .html_report import report
+    from .reporting.html import report
 
     _check_output(args.output, (".html", ".htm"), "the report is an HTML file (.html)")
     css = ""
@@ -375,7 +376,7 @@ def _report(args) -> None:
 
 
 def _open(path: Path):
-    from .archive import ArchiveError, open_archive
+    from .io.archive import ArchiveError, open_archive
 
     try:
         return open_archive(path)
@@ -386,19 +387,19 @@ def _open(path: Path):
 
 
 def _show(args) -> None:
-    from .tables import order_table
+    from .reporting.tables import order_table
 
     tree = _open(args.archive)
     if "orders" not in tree.children:
         raise _BadInput(f"{args.archive}: archive has no /orders group")
     print(order_table(tree["orders"].ds))
     if "verify" in tree.children:
-        from .tables import verify_table
+        from .reporting.tables import verify_table
 
         print()
         print(verify_table(tree["verify"].ds))
     if "joints" in tree.children:
-        from .tables import joints_table
+        from .reporting.tables import joints_table
 
         print()
         print(joints_table(tree["joints"].ds))

@@ -205,12 +205,12 @@ def test_bad_balancers_are_refused_with_the_key_named(key, value, rule):
 
 
 def test_balancers_effect_switches_every_element_off(monkeypatch):
-    import harmbal.timedomain
+    import harmbal.model.evaluate
 
     def fail(*args, **kwargs):
         raise AssertionError("shaft loads computed although 'balancers' is not simulated")
 
-    monkeypatch.setattr(harmbal.timedomain, "shaft_loads", fail)
+    monkeypatch.setattr(harmbal.model.evaluate, "shaft_loads", fail)
     data = copy.deepcopy(BASE)
     data["model"]["effects"] = ["rotating"]
     data["lanchester_pair"] = [{"order": 2, "unbalance": 0.01}]

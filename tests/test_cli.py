@@ -154,16 +154,16 @@ def test_stars_bad_arguments_exit_2(tmp_path, base_scene, capsys, args, message)
 
 
 def test_stars_verify_failure_exits_1(tmp_path, base_scene, capsys, monkeypatch):
-    import harmbal.crank_stars
+    import harmbal.orders.phasors
 
-    original = harmbal.crank_stars.order_phasors
+    original = harmbal.orders.phasors.order_phasors
 
     def broken(scene, **kwargs):  # a 0.1 % error in the z force of every cylinder
         p = original(scene, **kwargs)
         p.force_cylinder[:, :, 2] *= 1.001
         return p
 
-    monkeypatch.setattr(harmbal.crank_stars, "order_phasors", broken)
+    monkeypatch.setattr(harmbal.views.stars, "order_phasors", broken)
     assert main(["stars", str(write_scene(tmp_path / "s.toml", base_scene)), "--verify"]) == 1
     captured = capsys.readouterr()
     assert "FAILED" in captured.out and "disagree" in captured.err

@@ -15,10 +15,10 @@ import pytest
 import tomli_w
 
 import harmbal as hb
-from harmbal.balance_design import BOUND_SIDES
-from harmbal.design_spec import PEAK_SAMPLES
+from harmbal.balance.design import BOUND_SIDES
+from harmbal.scene.requests import PEAK_SAMPLES
 from harmbal.cli import main
-from harmbal.design_spec import Candidate, DesignRequest
+from harmbal.scene.requests import Candidate, DesignRequest
 from harmbal.scene import SceneError, scene_from_text
 
 ROOT = Path(__file__).resolve().parent.parent

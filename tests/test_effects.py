@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 import harmbal as hb
-from harmbal import kinematics, loads, timedomain
+from harmbal.model import kinematics
+from harmbal.model import loads
+from harmbal.model import evaluate as timedomain
 
 EFFECTS = ["reciprocating", "rotating", "rod_inertia", "mass_torque"]
 

@@ -1,4 +1,4 @@
-"""Firing sequences and intervals: :func:`harmbal.firing.firing` and the firing
+"""Firing sequences and intervals: :func:`harmbal.scene.firing.firing` and the firing
 variables of :func:`harmbal.stars`.
 
 Oracle, from the conventions (docs/conventions.md), not from the implementation:
@@ -38,7 +38,7 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 import harmbal as hb
-from harmbal.firing import FiringOrderError, firing, tdc_angles
+from harmbal.scene.firing import FiringOrderError, firing, tdc_angles
 
 DATASETS = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 SETTINGS = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -202,7 +202,7 @@ def test_pin_offset_shifts_tdc(e, h, cycle):
 @given(st.lists(st.tuples(st.floats(-math.pi, math.pi), st.floats(-1.6, 1.6), st.floats(0.02, 0.08),
                           st.floats(0.1, 0.5), st.floats(-0.2, 0.2)), min_size=1, max_size=6))
 def test_tdc_angles_against_own_root(cyls):
-    """harmbal.firing.tdc_angles for random cylinders (offsets up to 0.2·r)."""
+    """harmbal.scene.firing.tdc_angles for random cylinders (offsets up to 0.2·r)."""
     throw, bank = [c[0] for c in cyls], [c[1] for c in cyls]
     r = [c[2] for c in cyls]
     l = [c[2] / c[3] for c in cyls]
@@ -490,7 +490,7 @@ def test_given_firing_random(train, rnd):
 
 
 def test_stars_firing_matches_firing_function():
-    """The stars dataset reports what harmbal.firing.firing computes, by label."""
+    """The stars dataset reports what harmbal.scene.firing.firing computes, by label."""
     data = dataset("v6-90-split-pin")
     scene = hb.load_scene(data)
     c = scene.cylinders

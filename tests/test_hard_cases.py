@@ -56,7 +56,7 @@ from hypothesis import strategies as st
 
 import harmbal as hb
 from harmbal.cli import main
-from harmbal.kinematics import slider_crank
+from harmbal.model.kinematics import slider_crank
 
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 EPS = np.finfo(float).eps

@@ -1,4 +1,4 @@
-"""Exact design of a lever balancer's balance weight (harmbal.lever_design).
+"""Exact design of a lever balancer's balance weight (harmbal.balance.lever).
 
 The design is never judged by its own affine map or its own criterion code.
 Oracles used here:
@@ -44,8 +44,8 @@ from scipy.optimize import linprog, lsq_linear, minimize, minimize_scalar
 
 import harmbal as hb
 from harmbal.cli import main
-from harmbal.design_spec import LeverDesignRequest
-from harmbal.lever_design import compass_search, design_lever
+from harmbal.scene.requests import LeverDesignRequest
+from harmbal.balance.lever import compass_search, design_lever
 from harmbal.scene import SceneError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -53,7 +53,7 @@ LEVER = ROOT / "datasets" / "engines" / "lever-single.toml"
 TEXT = LEVER.read_text(encoding="utf-8")
 BASE = tomllib.loads(TEXT)
 
-#: Samples per revolution of every criterion (harmbal.design_spec.PEAK_SAMPLES).
+#: Samples per revolution of every criterion (harmbal.scene.requests.PEAK_SAMPLES).
 N = 2048
 
 #: The bounds of lever-single.toml's [design.lever] [kg, m].
@@ -827,7 +827,7 @@ def test_cli_design_bad_output_exits_2_and_writes_nothing(tmp_path, capsys, wher
 
 
 def test_cli_design_exits_1_and_writes_nothing_when_the_exact_model_disagrees(tmp_path, capsys, monkeypatch):
-    import harmbal.timedomain as timedomain
+    import harmbal.views.time as timedomain
 
     real = timedomain.simulate
 

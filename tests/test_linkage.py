@@ -37,12 +37,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import harmbal as hb
-from harmbal.linkage import (LeverBalancer, LinkageWarning, LinkBody, acceleration, closure, four_bar, link_loads,
-                             weight_basis)
-from harmbal.mechanism import reactions
-from harmbal.orders import order_spectrum
+from harmbal.scene.elements import LeverBalancer, LinkageWarning, LinkBody, closure
+from harmbal.model.linkage import acceleration, four_bar, link_loads, weight_basis
+from harmbal.model.mechanism import reactions
+from harmbal.views.orders import order_spectrum
 from harmbal.scene import scene_from_text
-from harmbal.timedomain import choose_samples
+from harmbal.model.sampling import choose_samples
 
 DATASETS = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 LEVER_SINGLE = DATASETS / "lever-single.toml"

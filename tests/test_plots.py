@@ -15,15 +15,7 @@ from harmbal.cli import main
 
 pytest.importorskip("matplotlib")
 
-from harmbal.plots import (  # noqa: E402
-    crank_star,
-    default_orders,
-    phasor_chain,
-    phasor_diagram,
-    save_figure,
-    select_speed,
-    stars_figure,
-)
+from harmbal.reporting.plots import (crank_star, default_orders, phasor_chain, phasor_diagram, save_figure, select_speed, stars_figure)
 
 ENGINES = Path(__file__).parent.parent / "datasets" / "engines"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -234,7 +226,7 @@ def test_cli_plot_wrong_extension_exits_2_and_writes_nothing(tmp_path, capsys):
 
 
 def test_import_harmbal_does_not_import_matplotlib():
-    code = ("import harmbal, harmbal.plots, sys; "
+    code = ("import harmbal, harmbal.reporting.plots, sys; "
             "assert 'matplotlib' not in sys.modules, 'matplotlib imported'")
     root = Path(__file__).parent.parent
     env = {**os.environ, "PYTHONPATH": str(root)}

@@ -10,15 +10,7 @@ import harmbal as hb
 
 pytest.importorskip("matplotlib")
 
-from harmbal.plots import (  # noqa: E402
-    OKABE_ITO,
-    locus_figure,
-    lever_figure,
-    order_spectrum_figure,
-    phasing_figure,
-    save_figure,
-    time_traces_figure,
-)
+from harmbal.reporting.plots import (OKABE_ITO, locus_figure, lever_figure, order_spectrum_figure, phasing_figure, save_figure, time_traces_figure)
 
 ENGINES = Path(__file__).parent.parent / "datasets" / "engines"
 UNIT = re.compile(r"\[[^\]]+\]")

@@ -741,7 +741,7 @@ def test_verify_orders_detects_a_broken_order_path(monkeypatch, name, part):
 
 def test_verify_orders_detects_a_broken_time_path(monkeypatch):
     """The other side: a time domain with a slightly wrong rod length."""
-    timedomain = importlib.import_module("harmbal.timedomain")
+    timedomain = importlib.import_module("harmbal.views.time")
     original = timedomain.simulate
     scene = hb.load_scene(DATASETS / "inline-4.toml")
 

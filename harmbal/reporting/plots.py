@@ -28,18 +28,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .crank_stars import star_arms
-from .design_spec import signed_ratio
-from .files import atomic_path
-from .linkage import TRANSMISSION_WARNING
-from .orders import BALANCED_RTOL, is_balanced
+from ..orders.stars import star_arms
+from ..scene.requests import signed_ratio
+from ..io.files import atomic_path
+from ..scene.elements import TRANSMISSION_WARNING
+from ..orders.spectrum import BALANCED_RTOL, is_balanced
 
 if TYPE_CHECKING:
     import xarray as xr
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from .scene import Scene
+    from ..scene import Scene
 
 #: The Okabe–Ito colour-blind-safe palette.
 OKABE_ITO = {
@@ -939,12 +939,11 @@ def accuracy_figure(rows: list[dict]) -> Figure:
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
-    from .bench import FAMILIES
-
     engines = list(dict.fromkeys(r["engine"] for r in rows))
     lambdas = list(dict.fromkeys(r["lambda"] for r in rows))
     markers = dict(zip(lambdas, "os^Dvp"))
-    colours = {family: OKABE_ITO[c] for family, c in zip(FAMILIES, SERIES_COLOURS)}
+    families = list(dict.fromkeys(r["family"] for r in rows))  # in the order harmbal.bench.run measured them
+    colours = {family: OKABE_ITO[c] for family, c in zip(families, SERIES_COLOURS)}
     fig = Figure(figsize=(4.2 * len(engines), 4.8))
     axes = fig.subplots(1, len(engines), squeeze=False, sharey=True)
     floor = 1e-17
@@ -955,7 +954,7 @@ def accuracy_figure(rows: list[dict]) -> Figure:
             if line:
                 ax.plot([r["seconds"] * 1e3 for r in line], [max(r["error"], floor) for r in line], "-",
                         color=colours["samples"], lw=0.8, alpha=0.6)
-        for family in FAMILIES:
+        for family in families:
             for lam in lambdas:
                 pts = [r for r in mine if r["family"] == family and r["lambda"] == lam]
                 if pts:

@@ -20,10 +20,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .balancers import PRODUCT_CONVENTIONS, Shaft, ShaftUnbalance, couple_from_moment, couple_from_products
-from .design_spec import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate,
-                          DesignRequest, LeverDesignRequest, VerifyRequest)
-from .linkage import ASSEMBLY_MODES, TRANSMISSION_WARNING, LeverBalancer, LinkageWarning, LinkBody, closure, closure_message
+from .elements import PRODUCT_CONVENTIONS, Shaft, ShaftUnbalance, couple_from_moment, couple_from_products
+from .requests import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate, DesignRequest, LeverDesignRequest, VerifyRequest)
+from .elements import (ASSEMBLY_MODES, TRANSMISSION_WARNING, LeverBalancer, LinkageWarning, LinkBody, closure, closure_message)
 from .units import QuantityError, to_si
 
 EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")

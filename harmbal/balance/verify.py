@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .crank_stars import VERIFY_RTOL
-from .design_spec import COMPONENTS, PEAK_SAMPLES, VerifyRequest
-from .orders import BALANCED_RTOL, order_spectrum
-from .scene import Scene
-from .timedomain import choose_samples, simulate
+from ..views.stars import VERIFY_RTOL
+from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
+from ..orders.spectrum import BALANCED_RTOL
+from ..views.orders import order_spectrum
+from ..scene import Scene
+from ..model.sampling import choose_samples
+from ..views.time import simulate
 
 
 class VerifyError(ValueError):

@@ -36,11 +36,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .design_spec import PEAK_SAMPLES
+from ..scene.requests import PEAK_SAMPLES
 from .kinematics import slider_crank
-from .linkage import TRANSMISSION_WARNING, closure, four_bar, to_engine
-from .scene import Scene
-from .timedomain import choose_samples, speed_axis
+from ..scene.elements import TRANSMISSION_WARNING, closure
+from .linkage import four_bar, to_engine
+from ..scene import Scene
+from .sampling import choose_samples
+from ..labelled import speed_axis
 
 
 def _cross(p, q):

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._version import __version__
-from .orders import is_balanced
+from .._version import __version__
+from ..orders.spectrum import is_balanced
 
 #: Crank angles per revolution of the traces and loci (one every 0.5°).
 TRACE_SAMPLES = 720
@@ -167,7 +167,7 @@ def _stars(page: _Page, tree) -> None:
 
 def _traces(page: _Page, scene, tree) -> None:
     from .plots import locus_figure, time_traces_figure
-    from .timedomain import simulate
+    from ..views.time import simulate
 
     # Smooth curves need more angles than the spectra: the traces are simulated again from the scene
     # at TRACE_SAMPLES or more (the same from a scene and from its archive).
@@ -189,7 +189,7 @@ def _traces(page: _Page, scene, tree) -> None:
 
 
 def _balancers(page: _Page, scene, tree) -> None:
-    from .design_spec import signed_ratio
+    from ..scene.requests import signed_ratio
     from .plots import phasing_figure
     from .tables import targeted_rows
 
@@ -276,7 +276,7 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     str
         The HTML text.
     """
-    from .scene import scene_from_text
+    from ..scene import scene_from_text
 
     attrs = tree["scene"].ds.attrs
     scene = scene_from_text(attrs["scene_toml"], attrs.get("source", "<scene>"))
@@ -294,7 +294,7 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
             f"<style>{_STYLE}{css}</style></head><body><h1>{_e(title)}</h1>"
             f"<p class=\"note\">{_e(scene.description)}</p>" + "\n".join(page.parts) + "</body></html>\n")
     if path is not None:
-        from .files import atomic_path
+        from ..io.files import atomic_path
 
         with atomic_path(Path(path)) as tmp:
             tmp.write_text(text, encoding="utf-8")

@@ -25,61 +25,10 @@ input names its convention.
 from __future__ import annotations
 
 import cmath
-from dataclasses import dataclass
 
 import numpy as np
 
-#: Sign conventions for products of inertia: "integral" is J_xy = +∫x·y dm;
-#: "tensor" is the inertia-tensor entry D_xy = −∫x·y dm.
-PRODUCT_CONVENTIONS = ("integral", "tensor")
-
-
-@dataclass(frozen=True)
-class ShaftUnbalance:
-    """Static unbalance on a shaft: mass × radius [kg m] pointing at ``angle``
-    [rad] at θ = 0, at axial position ``x`` [m]."""
-
-    unbalance: float
-    angle: float
-    x: float
-
-
-@dataclass(frozen=True)
-class Shaft:
-    """A body turning at ``ratio`` × crank speed about the axis through
-    (``y``, ``z``) parallel to x.
-
-    ``couple`` is the complex couple unbalance [kg m²] in the w-plane at
-    θ = 0 (see the module docstring).
-    """
-
-    label: str
-    ratio: int
-    y: float
-    z: float
-    unbalances: tuple[ShaftUnbalance, ...] = ()
-    couple: complex = 0j
-
-    @property
-    def on_crank(self) -> bool:
-        """Part of the crankshaft: turns with it on its axis (counterweights,
-        the crankshaft's CAD data)."""
-        return self.ratio == 1 and self.y == 0 and self.z == 0
-
-
-def couple_from_products(j_xy: float, j_xz: float, convention: str, sense: int) -> complex:
-    """The complex couple unbalance [kg m²] from products of inertia about the
-    shaft's reference point, in the engine frame at θ = 0."""
-    if convention not in PRODUCT_CONVENTIONS:
-        raise ValueError(f"unknown product-of-inertia convention {convention!r}")
-    sign = 1.0 if convention == "integral" else -1.0
-    return complex(sign * j_xy, sign * sense * j_xz)
-
-
-def couple_from_moment(moment: float, angle: float) -> complex:
-    """The complex couple unbalance from its size [kg m²] (moment / Ω²) and the
-    direction [rad] of its moment vector at θ = 0."""
-    return cmath.rect(moment, angle)
+from ..scene.elements import Shaft
 
 
 def shaft_amplitudes(shaft: Shaft, sense: int) -> tuple[np.ndarray, np.ndarray]:

@@ -36,26 +36,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .balancers import Shaft, ShaftUnbalance, shaft_loads, shaft_phasors
-from .crank_stars import order_phasors
-from .design_spec import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio
-from .orders import BALANCED_RTOL, rotating_split
-from .scene import Scene, SceneError, scene_from_text
-from .scene_writer import angle_text, length_text, quantity_text, signed_angle_text, toml_tables, with_engine, without_tables
-from .timedomain import moment_about, unit_speed_loads
+from ..scene.elements import Shaft, ShaftUnbalance
+from ..model.balancers import shaft_loads, shaft_phasors
+from ..orders.phasors import order_phasors
+from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio)
+from ..orders.spectrum import BALANCED_RTOL, rotating_split
+from ..scene import Scene, SceneError, scene_from_text
+from .solvers import LP_TOLERANCES, DesignError
+from ..scene.writer import (angle_text, length_text, quantity_text, signed_angle_text, toml_tables, with_engine, without_tables)
+from ..model.evaluate import moment_about, unit_speed_loads
 
-#: HiGHS's default feasibility tolerances (1e-7) leave the optimum ~1e-7
-#: relative short of the true one, which a fine sweep can beat; these reach it.
-LP_TOLERANCES = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 
 #: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the
 #: linear programme uses (it gives away at most 1 − cos(π/64) = 0.12 %).
 BOUND_SIDES = 64
-
-
-class DesignError(ValueError):
-    """A design that cannot be set up (no [design] table, a target order the
-    scene does not resolve)."""
 
 
 @dataclass(frozen=True)
@@ -207,7 +201,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
 
     request = request or scene.design
     if isinstance(request, LeverDesignRequest):
-        from .lever_design import design_lever
+        from .lever import design_lever
 
         return design_lever(scene, request, name=name, description=description)
     if request is None:
@@ -554,7 +548,7 @@ def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine:
     plain TOML dump if the text cannot be edited safely."""
     import tomli_w
 
-    from ._version import __version__
+    from .._version import __version__
 
     original = tomllib.loads(scene.source_text)
     tables, notes = _elements_toml(request, values, negligible)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .orders import is_balanced
+from ..orders.spectrum import is_balanced
 
 #: A sweep with more speeds than this prints its lowest and highest speed only.
 PRINTED_SPEEDS = 8

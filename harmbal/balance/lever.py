@@ -38,12 +38,13 @@ from typing import Callable
 
 import numpy as np
 
-from .balance_design import LP_TOLERANCES, DesignError
-from .design_spec import LEVER_OBJECTIVES, LEVER_SIGNALS, PEAK_SAMPLES, LeverDesignRequest
-from .linkage import LeverBalancer, LinkBody, four_bar, lever_loads, to_engine, weight_basis
-from .orders import phasors, rotating_split
-from .scene import Scene
-from .timedomain import moment_about, unit_speed_loads
+from .solvers import LP_TOLERANCES, DesignError
+from ..scene.requests import LEVER_OBJECTIVES, LEVER_SIGNALS, PEAK_SAMPLES, LeverDesignRequest
+from ..scene.elements import LeverBalancer, LinkBody
+from ..model.linkage import four_bar, lever_loads, to_engine, weight_basis
+from ..orders.spectrum import phasors, rotating_split
+from ..scene import Scene
+from ..model.evaluate import moment_about, unit_speed_loads
 
 #: Orders reported in the per-order breakdown.
 BREAKDOWN_ORDERS = 4
@@ -387,8 +388,8 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     -------
     LeverDesign
     """
-    from .scene import scene_from_text
-    from .timedomain import simulate
+    from ..scene import scene_from_text
+    from ..views.time import simulate
 
     request = request or scene.design
     if not isinstance(request, LeverDesignRequest):
@@ -487,8 +488,8 @@ def _scene_text(scene: Scene, index: int, lever: LeverBalancer, request: LeverDe
 
     import tomli_w
 
-    from ._version import __version__
-    from .scene_writer import HEADER, length_text, quantity_text, with_engine, without_tables
+    from .._version import __version__
+    from ..scene.writer import HEADER, length_text, quantity_text, with_engine, without_tables
 
     mass = quantity_text(lever.coupler.mass, "kg")
     cg = [length_text(v) for v in lever.coupler.cg]

@@ -1,0 +1,2 @@
+"""Stage 3, the order domain on plain arrays: FFT phasors and the co/counter
+split, order phasors per cylinder by the shift theorem, crank stars."""

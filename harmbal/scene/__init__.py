@@ -1,0 +1,7 @@
+"""Stage 1, the scene: what the user describes, read from TOML, validated and
+converted to SI once (units, schema, the readers of each table, balancer
+elements, design/verify requests, firing order, the scene writer)."""
+
+from .reader import EFFECTS, MAX_SPEEDS, Cylinder, Model, Scene, SceneError, load_scene, scene_from_text
+
+__all__ = ["EFFECTS", "MAX_SPEEDS", "Cylinder", "Model", "Scene", "SceneError", "load_scene", "scene_from_text"]

@@ -49,7 +49,7 @@ def main() -> None:
     from harmbal.orders.phasors import order_phasors
     from harmbal.orders.spectrum import phasors
     from harmbal.model.sampling import choose_samples
-    from harmbal.model.evaluate import unit_speed_loads
+    from harmbal.model.evaluate import evaluate
 
     v8 = hb.load_scene(ENGINES / "v8-cross-plane.toml")
     time_ds = hb.simulate(v8)
@@ -58,7 +58,7 @@ def main() -> None:
     n = choose_samples(v8)
 
     def arrays_only():
-        force, moment = unit_speed_loads(v8, n).total(v8.reference_point)
+        force, moment = evaluate(v8, n).total(v8.reference_point)
         return phasors(np.concatenate([force, moment]))
 
     rows = [

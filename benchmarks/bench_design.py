@@ -65,14 +65,14 @@ def thesis_sweep(stem: str = "tractor-3cyl-balanced") -> tuple[float, float, flo
     from harmbal.balance.design import _element_loads
     from harmbal.scene.requests import PEAK_SAMPLES
     from harmbal.scene.requests import Placement
-    from harmbal.model.evaluate import moment_about, unit_speed_loads
+    from harmbal.model.evaluate import moment_about, evaluate
 
     s = scene(stem)
     x1, x2 = s.design.candidates[0].planes
     ref = np.asarray(s.reference_point)
     theta = 2 * np.pi * np.arange(PEAK_SAMPLES) / PEAK_SAMPLES
     w2 = s.speeds[0] ** 2
-    unit = unit_speed_loads(s, PEAK_SAMPLES)
+    unit = evaluate(s, PEAK_SAMPLES)
     base = w2 * (moment_about(ref, unit.force_cylinder, unit.moment_cylinder).sum(axis=0)
                  + moment_about(ref, unit.force_crankshaft, unit.moment_crankshaft))[1:]
     # Unit couple (1 N m at the scene's speed) pointing 0° and 90°: unbalance ±u at x1, x2.
@@ -97,10 +97,10 @@ def linear_programme(stem: str = "tractor-3cyl-balanced") -> float:
     import numpy as np
 
     from harmbal.scene.requests import PEAK_SAMPLES
-    from harmbal.model.evaluate import moment_about, unit_speed_loads
+    from harmbal.model.evaluate import moment_about, evaluate
 
     designed = _design(stem).scene
-    unit = unit_speed_loads(designed, PEAK_SAMPLES)
+    unit = evaluate(designed, PEAK_SAMPLES)
     ref = np.asarray(designed.reference_point)
     moment = designed.speeds[0] ** 2 * (moment_about(ref, unit.force_cylinder, unit.moment_cylinder).sum(axis=0)
                                         + moment_about(ref, unit.force_crankshaft, unit.moment_crankshaft))

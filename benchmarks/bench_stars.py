@@ -5,7 +5,7 @@ the shift theorem, plain arrays) and ``harmbal.views.stars.stars(scene)`` (that 
 crank stars, firing and the xarray Dataset). Time domain:
 ``order_spectrum(simulate(scene))`` (exact loads of every cylinder at every
 angle, FFT of the sums, two Datasets), and for reference the same arithmetic
-without xarray (``unit_speed_loads`` + rFFT of the summed force and moment).
+without xarray (``evaluate`` + rFFT of the summed force and moment).
 Each at the scene's default sampling and at a fixed 1024 samples/rev.
 
 Run from the repository root with harmbal installed (or ``PYTHONPATH=.``):
@@ -65,9 +65,9 @@ def _time_domain(s, n):
 def _time_domain_arrays(s, n):
     from harmbal.orders.spectrum import phasors
     from harmbal.model.sampling import choose_samples
-    from harmbal.model.evaluate import unit_speed_loads
+    from harmbal.model.evaluate import evaluate
 
-    unit = unit_speed_loads(s, n or choose_samples(s))
+    unit = evaluate(s, n or choose_samples(s))
     kmax = s.sampling.max_order
     return (phasors(unit.force_cylinder.sum(axis=0) + unit.force_crankshaft)[..., : kmax + 1],
             phasors(unit.moment_cylinder.sum(axis=0) + unit.moment_crankshaft)[..., : kmax + 1])
@@ -78,7 +78,7 @@ PATHS = {
     "order domain: `order_phasors`": _order_phasors,
     "order domain: `stars` (Dataset)": _stars,
     "time domain: `order_spectrum(simulate)`": _time_domain,
-    "time domain, arrays only: `unit_speed_loads` + rFFT": _time_domain_arrays,
+    "time domain, arrays only: `evaluate` + rFFT": _time_domain_arrays,
 }
 
 

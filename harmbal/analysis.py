@@ -5,18 +5,19 @@ from __future__ import annotations
 import numpy as np
 
 from ._version import __version__
-from .views.orders import order_spectrum
+from .labelled import CONVENTIONS, Speeds, dataset, tree
+from .model.evaluate import evaluate
+from .orders.phasors import order_phasors
+from .orders.spectrum import phasors
 from .scene import Scene
-from .views.stars import stars
-from .labelled import CONVENTIONS
-from .views.time import simulate
+from .views.orders import orders_dataset
+from .views.stars import stars_dataset
+from .views.time import body_aliasing, body_moments, time_dataset
 
 
 def scene_dataset(scene: Scene):
     """The scene as a Dataset: one row per cylinder (SI units) and the scene
     text in the ``scene_toml`` attribute, for provenance."""
-    import xarray as xr
-
     cyls = scene.cylinders
 
     def var(values, units, long_name):
@@ -37,7 +38,7 @@ def scene_dataset(scene: Scene):
                            "con-rod moment of inertia about its CG"),
     }
     coords = {"cylinder": ("cylinder", [c.label for c in cyls], {"long_name": "cylinder label"})}
-    return xr.Dataset(data, coords, attrs={
+    return dataset(data, coords, {
         "engine": scene.name,
         "description": scene.description,
         "source": scene.source,
@@ -64,29 +65,37 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         Groups ``/scene`` (cylinder table and scene text), ``/time``
         (:func:`harmbal.simulate`), ``/orders``
         (:func:`harmbal.order_spectrum`), ``/stars``
-        (:func:`harmbal.stars`); if the scene has lever balancers,
+        (:func:`harmbal.stars` without its free vectors, which are
+        ``/orders``'s); if the scene has lever balancers,
         ``/joints`` (:func:`harmbal.joints`: joint forces and toggle
         diagnostics); if it has a ``[verify]`` table, ``/verify``
         (:func:`harmbal.verify`).
     """
-    import xarray as xr
+    unit = evaluate(scene)
+    moment_cylinder, moment_crankshaft = body_moments(unit)
+    aliasing = body_aliasing(unit, moment_cylinder, moment_crankshaft, backend)
+    time = time_dataset(scene, unit, per_cylinder=per_cylinder, aliasing=aliasing)
+    force, moment = unit.total()
+    spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order), unit speed
+    speeds = Speeds(scene.speeds)
+    kmax = scene.sampling.max_order
+    orders = orders_dataset(spectrum[0], spectrum[1], {"force": aliasing[0], "moment": aliasing[1]},
+                            {"force": unit.force_scale, "moment": unit.moment_scale}, time.attrs, speeds,
+                            speeds.coords(), max_order=kmax, backend=backend)
+    groups = {"scene": scene_dataset(scene), "time": time, "orders": orders,
+              "stars": stars_dataset(scene, order_phasors(scene, unit=unit, backend=backend),
+                                            totals=(spectrum[0, :, :kmax + 1], spectrum[1, :, :kmax + 1]))}
+    if scene.levers:
+        from .model.mechanism import joints
 
-    time = simulate(scene, per_cylinder=per_cylinder)
-    orders = order_spectrum(time, backend=backend)
-    root = xr.Dataset(attrs={
+        groups["joints"] = joints(scene)
+    if scene.verify is not None:
+        from .balance.verify import verify
+
+        groups["verify"] = verify(scene, backend=backend)
+    return tree({
         "title": f"harmbal analysis: {scene.name}",
         "engine": scene.name,
         "harmbal_version": __version__,
         "conventions": CONVENTIONS,
-    })
-    groups = {"/": root, "/scene": scene_dataset(scene), "/time": time, "/orders": orders,
-              "/stars": stars(scene, backend=backend)}
-    if scene.levers:
-        from .model.mechanism import joints
-
-        groups["/joints"] = joints(scene)
-    if scene.verify is not None:
-        from .balance.verify import verify
-
-        groups["/verify"] = verify(scene, backend=backend)
-    return xr.DataTree.from_dict(groups)
+    }, groups)

@@ -92,12 +92,12 @@ def _time_domain(scene, backend: str = "scipy", workers: int | None = None):
     without building the Datasets)."""
     from .orders.spectrum import phasors
     from .model.sampling import choose_samples
-    from .model.evaluate import unit_speed_loads
+    from .model.evaluate import evaluate
 
     n, kmax, w2 = choose_samples(scene), scene.sampling.max_order, scene.speeds[0] ** 2
 
     def run():
-        force, moment = unit_speed_loads(scene, n).total(scene.reference_point)
+        force, moment = evaluate(scene, n).total(scene.reference_point)
         spectrum = phasors(np.concatenate([force, moment]), backend, workers)[:, : kmax + 1] * w2
         return spectrum[:3].T, spectrum[3:].T
 
@@ -120,7 +120,7 @@ def cases(scene) -> list[Case]:
     from .orders.phasors import order_phasors
     from .orders.spectrum import phasors
     from .model.sampling import choose_samples
-    from .model.evaluate import unit_speed_loads
+    from .model.evaluate import evaluate
 
     default_samples = choose_samples(scene)
     out = []
@@ -149,7 +149,7 @@ def cases(scene) -> list[Case]:
     out.append(Case("path", "time domain", ARRAYS, default_samples, _time_domain(scene)))
     out.append(Case("path", "time domain, Datasets", "simulate + order_spectrum (xarray Datasets)", default_samples,
                     _datasets(scene)))
-    force, moment = unit_speed_loads(scene, FFT_SAMPLES).total(scene.reference_point)
+    force, moment = evaluate(scene, FFT_SAMPLES).total(scene.reference_point)
     signals = np.concatenate([force, moment])
     backends = [("numpy", None), ("scipy", 1), ("scipy", 2)]
     if _has_pyfftw():

@@ -169,11 +169,11 @@ def _run(args) -> None:
     if "joints" in tree.children:
         import dataclasses
 
-        from .views.stars import stars
+        from .views.stars import stars, with_free_vectors
         from .reporting.tables import joints_table, lever_orders_table
 
         print()
-        print(lever_orders_table(tree["stars"].ds, stars(dataclasses.replace(scene, levers=()))))
+        print(lever_orders_table(with_free_vectors(tree["stars"].ds, tree["orders"].ds), stars(dataclasses.replace(scene, levers=()))))
         print()
         print(joints_table(tree["joints"].ds))
     if args.output is not None:
@@ -328,13 +328,15 @@ class _Disagreement(Exception):
 
 
 def _stars(args) -> None:
-    from .views.stars import stars, verify_orders
+    from .analysis import analyse
+    from .views.stars import verify_orders, with_free_vectors
     from .reporting.tables import stars_table, verification_table
 
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     scene = _load(args.scene)
-    ds = stars(scene)
+    tree = analyse(scene)  # the same evaluation and free vectors as harmbal run
+    ds = with_free_vectors(tree["stars"].ds, tree["orders"].ds)
     if args.orders and max(args.orders) > ds.sizes["order"] - 1:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {ds.sizes['order'] - 1}")
     print(stars_table(ds))

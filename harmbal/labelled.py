@@ -1,15 +1,28 @@
-"""Labelled arrays at the public edge: conventions, the speed axis and the
-construction of xarray objects from plain arrays (once, with final coords and attrs)."""
+"""Labelled arrays at the public edge: conventions, the speed axis, and xarray
+objects built once from plain arrays.
+
+Every stage below works on plain numpy arrays; the public functions turn their
+results into :class:`xarray.Dataset` and :class:`xarray.DataTree` here, in one
+step each with the final coordinates and attributes (xarray's general
+constructors align, merge and copy, which costs ten times the arithmetic of a
+whole analysis; :func:`dataset` and :func:`tree` skip that work for inputs
+that are aligned by construction, and fall back to the public constructors
+if xarray's internals ever change).
+
+Speeds. Inertial loads at constant speed are the unit-speed loads times ω².
+A scene with several speeds therefore keeps only the unit-speed arrays: a
+variable over ``speed`` is a lazy product (:func:`speed_scaled`) that is
+multiplied out only for the speeds selected or when its values are read, so
+a 10⁶-speed sweep holds no per-speed array.
+"""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-from .scene import Scene
-
-
 AXES = ("x", "y", "z")
-
 
 CONVENTIONS = (
     "Engine frame: x along the crank axis towards the front (pulley end), y to the right seen from the "
@@ -18,21 +31,166 @@ CONVENTIONS = (
     "See docs/conventions.md."
 )
 
+#: Attribute of an archived variable stored at unit speed (see :mod:`harmbal.io.archive`).
+SPEED_SCALING = "speed_scaling"
+SPEED_SCALING_RULE = "stored at 1 rad/s: the value at crank speed w [rad/s] is the stored value times w**2"
 
-def speed_axis(scene: Scene):
-    """The scene's speeds as a leading dimension.
 
-    Returns ``(lead, w2, coords)``: ``("speed",)`` and the array of ω² if the
-    scene has several speeds, else ``()`` and the scalar ω²; and the
-    ``speed`` [rad/s] and ``rpm`` coordinates.
+class _SpeedScaled:
+    """Lazy ω²-scaled values: ``values[s, ...] = w2[s] * unit[...]``.
+
+    A backend array in xarray's sense (shape, dtype, explicit indexing), so
+    that a Variable holding it is indexed lazily and multiplied out only
+    where read. ``unit`` holds the values at ω = 1 rad/s.
     """
-    speeds = np.asarray(scene.speeds, dtype=float)
-    if len(speeds) > 1:
-        lead, values = ("speed",), speeds
-    else:
-        lead, values = (), speeds[0]
-    coords = {
-        "speed": (lead, values, {"units": "rad/s", "long_name": "crank speed ω"}),
-        "rpm": (lead, values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
-    }
-    return lead, values**2, coords
+
+    def __init__(self, w2: np.ndarray, unit: np.ndarray):
+        self.w2 = np.asarray(w2, dtype=float)
+        self.unit = np.asarray(unit)
+        self.shape = self.w2.shape + self.unit.shape
+        self.dtype = np.result_type(self.w2, self.unit)
+
+    def __getitem__(self, key):
+        from xarray.core import indexing
+
+        return indexing.explicit_indexing_adapter(key, self.shape, indexing.IndexingSupport.OUTER, self._outer)
+
+    def _outer(self, key: tuple):
+        w2 = self.w2[key[0]]
+        unit = self.unit
+        for axis in reversed(range(unit.ndim)):  # last axis first: an integer key drops no axis before it
+            unit = unit[(slice(None),) * axis + (key[axis + 1],)]
+        return np.multiply.outer(w2, unit) if np.ndim(w2) else w2 * unit
+
+
+@functools.cache
+def _speed_scaled_class():
+    # Made on first use: xarray's BackendArray is imported only when a Dataset is built.
+    from xarray.backends import BackendArray
+
+    return type("SpeedScaled", (_SpeedScaled, BackendArray), {"__slots__": ()})
+
+
+def speed_scaled(w2, unit):
+    """The lazy product of ``w2`` (speed,) and ``unit`` (...)."""
+    return _speed_scaled_class()(w2, unit)
+
+
+def unit_speed_values(variable):
+    """The unit-speed array behind a variable built by :meth:`Speeds.variable`
+    over several speeds (None if it is not such a variable or has been
+    indexed since)."""
+    from xarray.core import indexing
+
+    data = getattr(variable, "_data", None)
+    if not isinstance(data, indexing.LazilyIndexedArray) or not isinstance(data.array, _SpeedScaled):
+        return None
+    if any(k != slice(None) for k in data.key.tuple):
+        return None
+    return data.array.unit
+
+
+class Speeds:
+    """The scene's speeds [rad/s] as the leading dimension of speed-dependent
+    variables: none for one speed (values at that speed), ``speed`` for
+    several (lazy ω² products of the unit-speed values)."""
+
+    def __init__(self, speeds):
+        speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
+        self.several = speeds.size > 1
+        self.lead = ("speed",) if self.several else ()
+        self.values = speeds if self.several else speeds[0]
+        self.w2 = self.values**2
+
+    def coords(self) -> dict:
+        """The ``speed`` [rad/s] and ``rpm`` coordinates."""
+        import xarray as xr
+
+        return {
+            "speed": xr.Variable(self.lead, self.values, {"units": "rad/s", "long_name": "crank speed ω"}),
+            "rpm": xr.Variable(self.lead, self.values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
+        }
+
+    def variable(self, dims: tuple, unit, attrs: dict):
+        """A variable of values ``unit`` [at ω = 1 rad/s] times ω²."""
+        import xarray as xr
+        from xarray.core import indexing
+
+        if not self.several:
+            return xr.Variable(dims, self.w2 * np.asarray(unit), attrs)
+        return xr.Variable(self.lead + dims, indexing.LazilyIndexedArray(speed_scaled(self.w2, unit)), attrs)
+
+
+def speed_axis(speeds):
+    """``(lead, w2, coords)`` of :class:`Speeds` for callers that scale
+    small arrays themselves (coords as Variables)."""
+    s = Speeds(speeds)
+    return s.lead, s.w2, s.coords()
+
+
+def dataset(data: dict, coords: dict, attrs: dict):
+    """A Dataset from Variables (or ``(dims, values, attrs)`` tuples) that
+    are aligned by construction: dimension coordinates are indexed, nothing
+    is merged or copied. Falls back to ``xarray.Dataset`` if xarray's
+    internals differ from what this expects."""
+    import xarray as xr
+
+    data = {name: _as_variable(v) for name, v in data.items()}
+    coords = {name: _as_variable(v) for name, v in coords.items()}
+    try:
+        return _dataset_direct(data, coords, attrs)
+    except (AttributeError, TypeError, ValueError, ImportError):  # pragma: no cover - an xarray that changed
+        return xr.Dataset(data, coords, attrs)
+
+
+def _as_variable(value):
+    import xarray as xr
+
+    return value if isinstance(value, xr.Variable) else xr.Variable(*value)
+
+
+def _dataset_direct(data: dict, coords: dict, attrs: dict):
+    import xarray as xr
+    from xarray.core.indexes import PandasIndex
+
+    variables, indexes, dims = {}, {}, {}
+    for name, var in {**coords, **data}.items():
+        for dim, size in zip(var.dims, var.shape):
+            if dims.setdefault(dim, size) != size:
+                raise ValueError(f"{name}: dimension {dim} has sizes {dims[dim]} and {size}")
+        variables[name] = var
+    for name, var in coords.items():
+        if var.dims == (name,):
+            index = PandasIndex.from_variables({name: var}, options={})
+            indexes[name] = index
+            variables.update(index.create_variables({name: var}))
+    names = list(coords) + [n for n in data if n not in coords]
+    return xr.Dataset._construct_direct({n: variables[n] for n in names}, set(coords), dims, attrs=dict(attrs),
+                                        indexes=indexes)
+
+
+def tree(root_attrs: dict, groups: dict):
+    """A DataTree of a root node with ``root_attrs`` and one child per
+    Dataset in ``groups`` (name → Dataset, no coordinates in the root), the
+    Datasets attached as they are instead of copied and re-aligned."""
+    import xarray as xr
+
+    try:
+        return _tree_direct(root_attrs, groups)
+    except (AttributeError, TypeError):  # pragma: no cover - an xarray that changed
+        return xr.DataTree.from_dict({"/": xr.Dataset(attrs=root_attrs), **{f"/{k}": v for k, v in groups.items()}})
+
+
+def _tree_direct(root_attrs: dict, groups: dict):
+    import xarray as xr
+
+    root = xr.DataTree(xr.Dataset(attrs=root_attrs))
+    for name, ds in groups.items():
+        node = xr.DataTree.__new__(xr.DataTree)
+        node._set_node_data(ds)
+        node._parent = None
+        node._children = {}
+        node._name = name
+        root._children[name] = node
+        node._parent = root
+    return root

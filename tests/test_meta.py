@@ -6,7 +6,7 @@ import sys
 
 import harmbal
 from harmbal.scene import Cylinder
-from harmbal.orders.phasors import PLACEMENT_FIELDS, TYPE_FIELDS
+from harmbal.model.evaluate import PLACEMENT_FIELDS, TYPE_FIELDS
 
 
 def test_cylinder_type_and_placement_cover_every_field():

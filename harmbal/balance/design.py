@@ -44,7 +44,7 @@ from ..orders.spectrum import BALANCED_RTOL, rotating_split
 from ..scene import Scene, SceneError, scene_from_text
 from .solvers import LP_TOLERANCES, DesignError
 from ..scene.writer import (angle_text, length_text, quantity_text, signed_angle_text, toml_tables, with_engine, without_tables)
-from ..model.evaluate import moment_about, unit_speed_loads
+from ..model.evaluate import moment_about, evaluate
 
 
 #: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the
@@ -420,7 +420,7 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np
     sense = scene.sense
     n = PEAK_SAMPLES
     theta = 2 * np.pi * np.arange(n) / n
-    force, moment = unit_speed_loads(scene, n).total(ref)
+    force, moment = evaluate(scene, n).total(ref)
     for c in fixed[0]:
         for placements, v in zip(c.unknowns(), fixed[1][c.label]):
             f, m = _element_loads(placements, v, theta, sense, ref)

@@ -44,7 +44,7 @@ from ..scene.elements import LeverBalancer, LinkBody
 from ..model.linkage import four_bar, lever_loads, to_engine, weight_basis
 from ..orders.spectrum import phasors, rotating_split
 from ..scene import Scene
-from ..model.evaluate import moment_about, unit_speed_loads
+from ..model import evaluate as model
 
 #: Orders reported in the per-order breakdown.
 BREAKDOWN_ORDERS = 4
@@ -131,14 +131,14 @@ def _black_box(scene: Scene, lever: LeverBalancer, request: LeverDesignRequest, 
     recomputed for every trial weight (no use of linearity)."""
     ref = np.asarray(scene.reference_point, dtype=float)
     mass_torque = "mass_torque" in scene.model.effects
-    force, moment = unit_speed_loads(scene, len(theta)).total(ref)
+    force, moment = model.evaluate(scene, len(theta)).total(ref)
     own_force, own_moment = lever_loads((lever,), theta, scene.sense, mass_torque)
-    rest_force, rest_moment = force - own_force, moment - moment_about(ref, own_force, own_moment)
+    rest_force, rest_moment = force - own_force, moment - model.moment_about(ref, own_force, own_moment)
     w2 = scene.speeds[0] ** 2
 
     def evaluate(weight) -> float:
         f, m = lever_loads((_with_weight(lever, weight),), theta, scene.sense, mass_torque)
-        values = _signals(rest_force + f, rest_moment + moment_about(ref, f, m), request.signals) * w2
+        values = _signals(rest_force + f, rest_moment + model.moment_about(ref, f, m), request.signals) * w2
         return criterion(values, request.objective, request.orders, request.weights)
 
     return evaluate
@@ -153,7 +153,7 @@ def lever_problem(scene: Scene, request: LeverDesignRequest, samples: int = PEAK
     sense = scene.sense
     theta = 2 * np.pi * np.arange(samples) / samples
     ref = np.asarray(scene.reference_point, dtype=float)
-    total = _signals(*unit_speed_loads(scene, samples).total(ref), request.signals)
+    total = _signals(*model.evaluate(scene, samples).total(ref), request.signals)
     # The weight's own force is −basis·p; its moment about ref acts at the lever's plane.
     columns = weight_basis(four_bar(lever, theta, sense))  # (3, angle) complex: m·a_G per unit p
     fy, fz = to_engine(-columns, sense)

@@ -1,8 +1,16 @@
-"""Exact time-domain shaking force and moment on the block.
+"""The one evaluation of the exact model that every view derives from.
 
-The model is evaluated once at unit crank speed, vectorised over angles and
-cylinders, and scaled by ω² for every speed (exact for inertial loads at
-constant speed). Only the effects listed in the scene are computed.
+:func:`evaluate` computes, at unit crank speed (ω = 1 rad/s) and on one grid
+of crank angles, the loads of every body the scene's effects ask for: the
+planar loads of each cylinder *type* (cylinders differing only in throw, bank
+and axial position share one), every cylinder's loads in the engine frame
+(the type's samples shifted by its phase: a roll of the grid when the phase
+falls on it, else one more row of the same vectorised evaluation), the
+crankshaft's static unbalances and the balancer elements, and the bounds on
+each body's peak load that judge what is "zero". Time-domain totals, order
+phasors, crank stars, aliasing estimates and verification are derived from
+this without evaluating the kinematics again; inertial loads at constant
+speed scale exactly with ω², so one evaluation serves every speed.
 """
 
 from __future__ import annotations
@@ -15,25 +23,88 @@ from . import loads
 from .balancers import shaft_loads
 from .kinematics import crank_pin, slider_crank
 from .linkage import lever_loads
-from ..scene import Scene
+from .sampling import body_decay_rates, choose_samples
+from ..scene import Model, Scene
+
+#: A cylinder's phase within this many grid steps of a grid point is on the grid (a roll of its type's samples).
+ON_GRID = 1e-9
 
 
-@dataclass(frozen=True)
-class UnitSpeedLoads:
-    """Loads at ω = 1 rad/s about the origin: per cylinder (cylinder, axis,
-    angle) and from crankshaft unbalances and balancer elements (axis, angle)."""
+@dataclass(frozen=True, eq=False)
+class UnitLoads:
+    """The exact model at ω = 1 rad/s on ``theta`` (N angles of one revolution).
+
+    Loads are what the moving parts exert on the block, about the origin of
+    the engine frame, shape (..., axis, angle) with axis = (x, y, z):
+
+    * ``type_planar`` (type, 3, N): force along and across the cylinder axis
+      [N] and roll moment [N m] of each cylinder type at ψ = θ (None if no
+      planar effect is simulated); ``cylinder_type`` (cylinder,) its index.
+    * ``force_cylinder``, ``moment_cylinder`` (cylinder, 3, N), with the
+      cylinder's throw unbalances.
+    * ``force_crankshaft``, ``moment_crankshaft`` (3, N): the crankshaft's own
+      static unbalances.
+    * ``force_elements``, ``moment_elements`` (3, N): balancer elements
+      (shafts, counterweights, levers) when ``balancers`` is simulated;
+      ``force_levers``, ``moment_levers`` the levers' part of them.
+    * ``peak_force``, ``peak_moment`` (cylinder,) and ``crankshaft_peak_force``,
+      ``crankshaft_peak_moment``: bounds on each body's peak load, moments
+      about ``reference_point``; their sums are the load scales.
+    * ``lever_arm`` (cylinder,): farthest distance of a cylinder's loads from
+      the reference point [m]; ``decay_rates`` (cylinder + 1,): decay rate of
+      each body's harmonics (cylinders, then the crankshaft's elements).
+    """
 
     theta: np.ndarray
+    reference_point: np.ndarray
+    sense: int
+    max_order: int
+    cylinder_type: np.ndarray
+    type_planar: np.ndarray | None
     force_cylinder: np.ndarray
     moment_cylinder: np.ndarray
     force_crankshaft: np.ndarray
     moment_crankshaft: np.ndarray
+    force_elements: np.ndarray
+    moment_elements: np.ndarray
+    force_levers: np.ndarray | None
+    moment_levers: np.ndarray | None
+    peak_force: np.ndarray
+    peak_moment: np.ndarray
+    crankshaft_peak_force: float
+    crankshaft_peak_moment: float
+    lever_arm: np.ndarray
+    decay_rates: np.ndarray
 
-    def total(self, point) -> tuple[np.ndarray, np.ndarray]:
-        """Summed force and moment about ``point`` (axis, angle)."""
-        point = np.asarray(point, dtype=float)
-        force = self.force_cylinder.sum(axis=0) + self.force_crankshaft
-        moment = self.moment_cylinder.sum(axis=0) + self.moment_crankshaft
+    @property
+    def samples_per_rev(self) -> int:
+        return self.theta.size
+
+    @property
+    def force_scale(self) -> float:
+        """Sum of the single bodies' peak forces [N] at unit speed."""
+        return float(self.peak_force.sum() + self.crankshaft_peak_force)
+
+    @property
+    def moment_scale(self) -> float:
+        """Sum of the single bodies' peak moments [N m] at unit speed."""
+        return float(self.peak_moment.sum() + self.crankshaft_peak_moment)
+
+    def crankshaft(self, elements: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Force and moment about the origin of the crankshaft body: its
+        unbalances and, if ``elements``, the balancer elements."""
+        if not elements:
+            return self.force_crankshaft, self.moment_crankshaft
+        return self.force_crankshaft + self.force_elements, self.moment_crankshaft + self.moment_elements
+
+    def total(self, point=None, elements: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Summed force and moment about ``point`` (default the reference
+        point), shape (axis, angle); without the balancer elements if not
+        ``elements``."""
+        point = self.reference_point if point is None else np.asarray(point, dtype=float)
+        crank_force, crank_moment = self.crankshaft(elements)
+        force = self.force_cylinder.sum(axis=0) + crank_force
+        moment = self.moment_cylinder.sum(axis=0) + crank_moment
         return force, moment_about(point, force, moment)
 
 
@@ -41,14 +112,14 @@ def _column(values) -> np.ndarray:
     return np.asarray(values, dtype=float)[:, None]
 
 
-def planar_loads(scene: Scene, cylinders, psi: np.ndarray):
+def planar_loads(model: Model, cylinders, psi: np.ndarray):
     """Load of one cylinder's moving parts in its local plane frame at unit
     speed, summed over the scene's effects.
 
     Parameters
     ----------
-    scene : Scene
-        Gives the effects and model options.
+    model : Model
+        The scene's effects and model options.
     cylinders : sequence of Cylinder
         Geometry and masses, one row of ``psi`` each.
     psi : ndarray
@@ -62,7 +133,7 @@ def planar_loads(scene: Scene, cylinders, psi: np.ndarray):
         torque's reaction if ``mass_torque`` is simulated), shape of ``psi``;
         None if no planar effect is simulated.
     """
-    effects = scene.model.effects
+    effects = model.effects
     r = _column([c.crank_radius for c in cylinders])
     l = _column([c.rod_length for c in cylinders])
     rod_mass = _column([c.rod.mass for c in cylinders])
@@ -72,7 +143,7 @@ def planar_loads(scene: Scene, cylinders, psi: np.ndarray):
 
     kin = None
     if effects & {"reciprocating", "rod_inertia"}:
-        series = scene.model.series_harmonics if scene.model.piston == "series" else None
+        series = model.series_harmonics if model.piston == "series" else None
         kin = slider_crank(psi, r, l, _column([c.offset for c in cylinders]), series)
 
     planar: list[loads.PlanarLoad] = []
@@ -82,9 +153,9 @@ def planar_loads(scene: Scene, cylinders, psi: np.ndarray):
             small_end))
     if "rotating" in effects:
         planar.append(loads.rotating_rod(crank_pin(psi, r)[0], big_end))
-    if "rod_inertia" in effects and scene.model.rod != "two_point":
+    if "rod_inertia" in effects and model.rod != "two_point":
         lateral = _column([c.rod.cg_lateral for c in cylinders])
-        off_axis = scene.model.rod == "rigid" and bool(np.any(lateral))
+        off_axis = model.rod == "rigid" and bool(np.any(lateral))
         planar.append(loads.rod_inertia(kin, rod_mass, rod_cg, lateral,
                                         _column([c.rod.inertia for c in cylinders]), l, off_axis))
     if not planar:
@@ -100,54 +171,157 @@ def planar_loads(scene: Scene, cylinders, psi: np.ndarray):
     return force_c, force_n, roll
 
 
-def unit_speed_loads(scene: Scene, samples_per_rev: int) -> UnitSpeedLoads:
-    """Force and moment about the origin at ω = 1 rad/s, per cylinder and for
-    the crankshaft unbalances, computing only the scene's effects."""
-    sense = scene.sense
-    theta = 2 * np.pi * np.arange(samples_per_rev) / samples_per_rev
-    cyls = scene.cylinders
-    bank = _column([c.bank for c in cyls])
-    x = _column([c.x for c in cyls])
-    psi = theta[None, :] + _column([c.throw for c in cyls]) - bank
+def _phase_rows(delta: np.ndarray, kind: np.ndarray, samples: int):
+    """Rows to evaluate and how each cylinder reads them.
 
-    shape = (len(cyls), 3, samples_per_rev)
-    force = np.zeros(shape)
-    moment = np.zeros(shape)
-    planar = planar_loads(scene, cyls, psi)
+    Cylinder i runs at ψ = θ + δ_i. With δ_i = 2π(m_i + f_i)/N, f_i in [0, 1),
+    its samples are the row of (type, f_i) at ψ = θ + 2πf_i/N rolled by m_i.
+    Returns the rows' (type, offset [rad]) and, per cylinder, its row and m_i.
+    Every type has its row at offset 0 (the type's own spectrum).
+    """
+    steps = np.asarray(delta, dtype=float) * samples / (2 * np.pi)
+    nearest = np.round(steps)
+    on = np.abs(steps - nearest) <= ON_GRID
+    whole = np.where(on, nearest, np.floor(steps))
+    offset = np.where(on, 0.0, np.asarray(delta) - 2 * np.pi * whole / samples)
+    keys: dict[tuple[int, float], int] = {(int(t), 0.0): int(t) for t in np.unique(kind)}
+    row = np.empty(len(kind), dtype=int)
+    for i, (t, f) in enumerate(zip(kind, offset)):
+        row[i] = keys.setdefault((int(t), float(f)), len(keys))
+    rows = sorted(keys.items(), key=lambda item: item[1])
+    return [key for key, _ in rows], row, whole.astype(int) % samples
+
+
+def cylinder_types(cylinders) -> tuple[list, np.ndarray]:
+    """Cylinders that differ only in placement (throw, bank, axial position,
+    label, throw unbalances) share a type: one representative per type and each cylinder's
+    type index."""
+    groups: dict[tuple, int] = {}
+    representatives = []
+    index = np.empty(len(cylinders), dtype=int)
+    for i, c in enumerate(cylinders):
+        key = tuple(getattr(c, name) for name in TYPE_FIELDS)
+        if key not in groups:
+            groups[key] = len(representatives)
+            representatives.append(c)
+        index[i] = groups[key]
+    return representatives, index
+
+
+#: Cylinder fields that place a cylinder in the engine; all other fields
+#: (geometry and masses) define its type. A meta-test checks that the two sets
+#: cover every field of :class:`harmbal.scene.Cylinder`.
+PLACEMENT_FIELDS = ("label", "throw", "bank", "x", "throw_unbalances")
+TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston", "rod")
+
+
+def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
+    """Evaluate the exact model once at ω = 1 rad/s, only the scene's effects.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`harmbal.load_scene`.
+    samples_per_rev : int, optional
+        Samples per revolution; default the scene's sampling
+        (:func:`harmbal.model.sampling.choose_samples`).
+
+    Returns
+    -------
+    UnitLoads
+    """
+    n = samples_per_rev or choose_samples(scene)
+    sense, effects = scene.sense, scene.model.effects
+    theta = 2 * np.pi * np.arange(n) / n
+    cyls = scene.cylinders
+    ncyl = len(cyls)
+    ref = np.asarray(scene.reference_point, dtype=float)
+    throw = np.array([c.throw for c in cyls])
+    bank = np.array([c.bank for c in cyls])
+    x = np.array([c.x for c in cyls])
+
+    representatives, kind = cylinder_types(cyls)
+    rows, row, shift = _phase_rows(throw - bank, kind, n)
+    psi = theta[None, :] + np.array([f for _, f in rows])[:, None]
+    planar = planar_loads(scene.model, [representatives[t] for t, _ in rows], psi)
+
+    force = np.zeros((ncyl, 3, n))
+    moment = np.zeros((ncyl, 3, n))
+    type_planar = None
+    peak_force = np.zeros(ncyl)
+    peak_roll = np.zeros(ncyl)
     if planar is not None:
-        force_c, force_n, roll = planar
+        samples = np.stack(planar, axis=1)  # (row, c/n/roll, angle)
+        type_planar = samples[: len(representatives)]
+        # Cylinder i's samples: its row rolled by its whole grid steps (index j + m_i).
+        index = (np.arange(n)[None, :] + shift[:, None]) % n
+        local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll, angle)
         # Local (c, n) -> transverse complex w = z + i·t, t 90° ahead of +z in
         # the direction of rotation (t = −sense·y); e_c ↔ e^{iβ}.
-        w = (force_c + 1j * force_n) * np.exp(1j * bank)
+        w = (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * bank)[:, None]
         force[:, 1] = -sense * w.imag
         force[:, 2] = w.real
-        moment[:, 0] = sense * roll
-        moment[:, 1] = -x * force[:, 2]
-        moment[:, 2] = x * force[:, 1]
+        moment[:, 0] = sense * local[:, 2]
+        moment[:, 1] = -x[:, None] * force[:, 2]
+        moment[:, 2] = x[:, None] * force[:, 1]
+        peak_force += np.hypot(type_planar[:, 0], type_planar[:, 1]).max(axis=-1)[kind]
+        peak_roll += np.abs(type_planar[:, 2]).max(axis=-1)[kind]
 
-    crank_force = np.zeros((3, samples_per_rev))
-    crank_moment = np.zeros((3, samples_per_rev))
-    if "rotating" in scene.model.effects:
-        index = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
-        if index:
+    crank_force = np.zeros((3, n))
+    crank_moment = np.zeros((3, n))
+    crank_peak = 0.0
+    if "rotating" in effects:
+        owner = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
+        if owner:
             ub = [u for c in cyls for u in c.throw_unbalances]
-            f, m = loads.rotating_unbalance(
-                theta[None, :] + _column([cyls[i].throw + u.angle for i, u in zip(index, ub)]),
-                _column([u.unbalance for u in ub]), _column([u.x for u in ub]), sense)
-            np.add.at(force, index, f)
-            np.add.at(moment, index, m)
+            f, m = loads.rotating_unbalance(theta[None, :] + np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None],
+                                            np.array([u.unbalance for u in ub])[:, None],
+                                            np.array([u.x for u in ub])[:, None], sense)
+            np.add.at(force, owner, f)
+            np.add.at(moment, owner, m)
+            np.add.at(peak_force, owner, [u.unbalance for u in ub])
         if scene.crankshaft_unbalances:
             ub = scene.crankshaft_unbalances
-            f, m = loads.rotating_unbalance(theta[None, :] + _column([u.angle for u in ub]),
-                                            _column([u.unbalance for u in ub]), _column([u.x for u in ub]), sense)
+            f, m = loads.rotating_unbalance(theta[None, :] + np.array([u.angle for u in ub])[:, None],
+                                            np.array([u.unbalance for u in ub])[:, None],
+                                            np.array([u.x for u in ub])[:, None], sense)
             crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
-    if "balancers" in scene.model.effects and scene.shafts:
-        f, m = shaft_loads(scene.shafts, theta, sense)
-        crank_force, crank_moment = crank_force + f, crank_moment + m
-    if "balancers" in scene.model.effects and scene.levers:
-        f, m = lever_loads(scene.levers, theta, sense, "mass_torque" in scene.model.effects)
-        crank_force, crank_moment = crank_force + f, crank_moment + m
-    return UnitSpeedLoads(theta, force, moment, crank_force, crank_moment)
+            crank_peak = sum(u.unbalance for u in ub)
+
+    element_force = np.zeros((3, n))
+    element_moment = np.zeros((3, n))
+    lever_force = lever_moment = None
+    shaft_peak_force = shaft_peak_moment = lever_peak_force = lever_peak_moment = 0.0
+    if "balancers" in effects and scene.shafts:
+        element_force, element_moment = shaft_loads(scene.shafts, theta, sense)
+        for shaft in scene.shafts:
+            n2 = shaft.ratio**2
+            shaft_peak_force += n2 * sum(u.unbalance for u in shaft.unbalances)
+            shaft_peak_moment += n2 * (abs(shaft.couple) + sum(
+                u.unbalance * float(np.linalg.norm(np.array([u.x, shaft.y, shaft.z]) - ref)) for u in shaft.unbalances))
+    if "balancers" in effects and scene.levers:
+        lever_force, lever_moment = lever_loads(scene.levers, theta, sense, "mass_torque" in effects)
+        element_force, element_moment = element_force + lever_force, element_moment + lever_moment
+        lever_peak_force = float(np.linalg.norm(lever_force, axis=0).max())
+        lever_peak_moment = float(np.linalg.norm(moment_about(ref, lever_force, lever_moment), axis=0).max())
+
+    # |M_i| ≤ |roll| + |r − ref|·|F| with r the farthest point of cylinder i's loads.
+    arm = np.array([max([abs(c.x - ref[0])] + [abs(u.x - ref[0]) for u in c.throw_unbalances]) for c in cyls])
+    arm = np.hypot(arm, np.hypot(ref[1], ref[2]))
+    crank_arm = max([0.0] + [float(np.hypot(u.x - ref[0], np.hypot(ref[1], ref[2])))
+                             for u in scene.crankshaft_unbalances])
+    return UnitLoads(
+        theta=theta, reference_point=ref, sense=sense, max_order=scene.sampling.max_order,
+        cylinder_type=kind, type_planar=type_planar,
+        force_cylinder=force, moment_cylinder=moment,
+        force_crankshaft=crank_force, moment_crankshaft=crank_moment,
+        force_elements=element_force, moment_elements=element_moment,
+        force_levers=lever_force, moment_levers=lever_moment,
+        peak_force=peak_force, peak_moment=peak_roll + arm * peak_force,
+        crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
+        crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
+        lever_arm=arm, decay_rates=body_decay_rates(scene),
+    )
 
 
 def moment_about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np.ndarray:
@@ -157,5 +331,3 @@ def moment_about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np
     fx, fy, fz = force[..., 0, :], force[..., 1, :], force[..., 2, :]
     shift = np.stack([py * fz - pz * fy, pz * fx - px * fz, px * fy - py * fx], axis=-2)
     return moment - shift
-
-

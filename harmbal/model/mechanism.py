@@ -209,7 +209,7 @@ def joints(scene: Scene, *, samples_per_rev: int | None = None):
     theta = 2 * np.pi * np.arange(n) / n
     sense = scene.sense
     result = reactions(scene, theta)
-    lead, w2, coords = speed_axis(scene)
+    lead, w2, coords = speed_axis(scene.speeds)
 
     def scaled(values):
         return np.multiply.outer(w2, values) if lead else w2 * values

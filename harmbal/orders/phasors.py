@@ -27,10 +27,8 @@ import numpy as np
 from ..scene.elements import Shaft, ShaftUnbalance
 from ..model.balancers import shaft_amplitudes, shaft_phasors
 from .spectrum import aliasing_estimate, phasors
-from ..model.linkage import lever_loads
-from ..scene import Cylinder, Scene
-from ..model.sampling import choose_samples
-from ..model.evaluate import moment_about, planar_loads
+from ..scene import Scene
+from ..model.evaluate import UnitLoads, evaluate, moment_about
 
 
 @dataclass(frozen=True)
@@ -76,31 +74,6 @@ class OrderPhasors:
         return self.moment_cylinder.sum(axis=0) + self.moment_crankshaft
 
 
-#: Cylinder fields that place a cylinder in the engine; all other fields
-#: (geometry and masses) define its type. A meta-test checks that the two sets
-#: cover every field.
-PLACEMENT_FIELDS = ("label", "throw", "bank", "x", "throw_unbalances")
-TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston", "rod")
-
-
-def cylinder_groups(cylinders: tuple[Cylinder, ...]) -> tuple[list[Cylinder], np.ndarray]:
-    """Cylinders that share one single-cylinder spectrum.
-
-    Returns one representative per type (its placement is ignored) and each
-    cylinder's group index.
-    """
-    groups: dict[tuple, int] = {}
-    representatives = []
-    index = np.empty(len(cylinders), dtype=int)
-    for i, c in enumerate(cylinders):
-        key = tuple(getattr(c, name) for name in TYPE_FIELDS)
-        if key not in groups:
-            groups[key] = len(representatives)
-            representatives.append(c)
-        index[i] = groups[key]
-    return representatives, index
-
-
 def _unbalance_phasors(angle: float, u, sense: int) -> tuple[np.ndarray, np.ndarray]:
     """First-order force and moment (about the origin) phasors per axis of a
     static unbalance ``u`` turning with the crank on its axis, pointing at
@@ -108,43 +81,44 @@ def _unbalance_phasors(angle: float, u, sense: int) -> tuple[np.ndarray, np.ndar
     return shaft_amplitudes(Shaft("", 1, 0.0, 0.0, (ShaftUnbalance(u.unbalance, angle, u.x),)), sense)
 
 
-def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy") -> OrderPhasors:
+def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy",
+                  unit: UnitLoads | None = None) -> OrderPhasors:
     """Per-cylinder order phasors at unit speed by the shift theorem.
 
     Parameters
     ----------
     scene : Scene
-        From :func:`harmbal.load_scene`.
+        From :func:`harmbal.load_scene` (placement, unbalances and elements,
+        which have closed-form phasors).
     samples_per_rev : int, optional
         Samples of each single-cylinder spectrum; default as the time domain
-        (:func:`harmbal.timedomain.choose_samples`).
+        (:func:`harmbal.model.sampling.choose_samples`).
     backend : {"scipy", "numpy", "pyfftw"}
         FFT implementation.
+    unit : UnitLoads, optional
+        The scene's evaluation (:func:`harmbal.model.evaluate.evaluate`), if
+        already made: its type samples, lever samples and bounds are reused.
 
     Returns
     -------
     OrderPhasors
     """
-    n = samples_per_rev or choose_samples(scene)
+    if unit is None:
+        unit = evaluate(scene, samples_per_rev)
+    n = unit.samples_per_rev
     kmax = scene.sampling.max_order
     sense = scene.sense
     cyls = scene.cylinders
     ncyl = len(cyls)
     order = np.arange(kmax + 1)
-    theta = 2 * np.pi * np.arange(n) / n
+    group = unit.cylinder_type
 
-    representatives, group = cylinder_groups(cyls)
     force = np.zeros((ncyl, 3, kmax + 1), dtype=complex)
     moment = np.zeros((ncyl, 3, kmax + 1), dtype=complex)
-    peak_force = np.zeros(ncyl)
-    peak_roll = np.zeros(ncyl)
     alias_force = np.zeros(ncyl)
     alias_roll = np.zeros(ncyl)
-
-    planar = planar_loads(scene, representatives, np.broadcast_to(theta, (len(representatives), n)))
-    if planar is not None:
-        samples = np.stack(planar, axis=1)  # (group, c/n/roll, angle)
-        spectrum = phasors(samples, backend)
+    if unit.type_planar is not None:
+        spectrum = phasors(unit.type_planar, backend)
         tail = aliasing_estimate(np.abs(spectrum), n, kmax)
         a, b, roll = (spectrum[group, j, : kmax + 1] for j in range(3))
         bank = np.array([c.bank for c in cyls])[:, None]
@@ -157,68 +131,41 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
         moment[:, 0] = sense * roll * shift
         moment[:, 1] = -x * force[:, 2]
         moment[:, 2] = x * force[:, 1]
-        peak_force += np.hypot(samples[:, 0], samples[:, 1]).max(axis=-1)[group]
-        peak_roll += np.abs(samples[:, 2]).max(axis=-1)[group]
         alias_force += np.hypot(tail[:, 0], tail[:, 1])[group]
         alias_roll += tail[:, 2][group]
 
     crank_force = np.zeros((3, kmax + 1), dtype=complex)
     crank_moment = np.zeros((3, kmax + 1), dtype=complex)
-    crank_peak = 0.0
-    rotating = "rotating" in scene.model.effects and kmax >= 1
-    if rotating:
+    if "rotating" in scene.model.effects:
         for i, c in enumerate(cyls):
             for u in c.throw_unbalances:
                 f, m = _unbalance_phasors(c.throw + u.angle, u, sense)
                 force[i, :, 1] += f
                 moment[i, :, 1] += m
-                peak_force[i] += u.unbalance
         for u in scene.crankshaft_unbalances:
             f, m = _unbalance_phasors(u.angle, u, sense)
             crank_force[:, 1] += f
             crank_moment[:, 1] += m
-            crank_peak += u.unbalance
-    shafts = scene.shafts if "balancers" in scene.model.effects else ()
-    if shafts:
-        shaft_force, shaft_moment = shaft_phasors(shafts, kmax, sense)
+    if "balancers" in scene.model.effects and scene.shafts:
+        shaft_force, shaft_moment = shaft_phasors(scene.shafts, kmax, sense)
         crank_force += shaft_force
         crank_moment += shaft_moment
 
-    ref = np.asarray(scene.reference_point, dtype=float)
-    lever_peak_force = lever_peak_moment = lever_alias_force = lever_alias_moment = 0.0
-    levers = scene.levers if "balancers" in scene.model.effects else ()
-    if levers:
-        f, m = lever_loads(levers, theta, sense, "mass_torque" in scene.model.effects)
-        spec_f, spec_m = phasors(np.stack([f, m]), backend)  # (axis, order), moment about the origin
+    ref = unit.reference_point
+    lever_alias_force = lever_alias_moment = 0.0
+    if unit.force_levers is not None:
+        spec_f, spec_m = phasors(np.stack([unit.force_levers, unit.moment_levers]), backend)  # moment about the origin
         crank_force += spec_f[:, : kmax + 1]
         crank_moment += spec_m[:, : kmax + 1]
-        lever_peak_force = float(np.linalg.norm(f, axis=0).max())
-        lever_peak_moment = float(np.linalg.norm(moment_about(ref, f, m), axis=0).max())
         lever_alias_force, lever_alias_moment = (
             float(np.linalg.norm(aliasing_estimate(np.abs(spec), n, kmax)))
             for spec in (spec_f, moment_about(ref, spec_f, spec_m)))
-    moment = moment_about(ref, force, moment)
-    crank_moment = moment_about(ref, crank_force, crank_moment)
-    # |M_i| ≤ |roll| + |r − ref|·|F| with r the farthest point of cylinder i's loads.
-    lever = np.array([max([abs(c.x - ref[0])] + [abs(u.x - ref[0]) for u in c.throw_unbalances]) for c in cyls])
-    lever = np.hypot(lever, np.hypot(ref[1], ref[2]))
-    crank_lever = max([0.0] + [float(np.hypot(u.x - ref[0], np.hypot(ref[1], ref[2])))
-                               for u in scene.crankshaft_unbalances])
-    shaft_peak_force = shaft_peak_moment = 0.0
-    for shaft in shafts:
-        n2 = shaft.ratio**2
-        shaft_peak_force += n2 * sum(u.unbalance for u in shaft.unbalances)
-        shaft_peak_moment += n2 * (abs(shaft.couple) + sum(
-            u.unbalance * float(np.linalg.norm(np.array([u.x, shaft.y, shaft.z]) - ref)) for u in shaft.unbalances))
     return OrderPhasors(
-        force_cylinder=force, moment_cylinder=moment,
-        force_crankshaft=crank_force, moment_crankshaft=crank_moment,
-        peak_force=peak_force, peak_moment=peak_roll + lever * peak_force,
-        crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
-        crankshaft_peak_moment=crank_lever * crank_peak + shaft_peak_moment + lever_peak_moment,
-        alias_force=alias_force, alias_moment=alias_roll + lever * alias_force,
-        samples_per_rev=n, groups=len(representatives),
+        force_cylinder=force, moment_cylinder=moment_about(ref, force, moment),
+        force_crankshaft=crank_force, moment_crankshaft=moment_about(ref, crank_force, crank_moment),
+        peak_force=unit.peak_force, peak_moment=unit.peak_moment,
+        crankshaft_peak_force=unit.crankshaft_peak_force, crankshaft_peak_moment=unit.crankshaft_peak_moment,
+        alias_force=alias_force, alias_moment=alias_roll + unit.lever_arm * alias_force,
+        samples_per_rev=n, groups=int(group.max(initial=-1)) + 1,
         crankshaft_alias_force=lever_alias_force, crankshaft_alias_moment=lever_alias_moment,
     )
-
-

@@ -91,6 +91,13 @@ class _Page:
                  f"<figcaption>Figure {self.figures}. {_e(caption)}</figcaption></figure>")
 
 
+def _free_vector_stars(tree):
+    """The tree's crank stars with its free vectors (kept in /orders)."""
+    from ..views.stars import with_free_vectors
+
+    return with_free_vectors(tree["stars"].ds, tree["orders"].ds)
+
+
 def _first_speed(ds):
     return ds.isel(speed=0) if "speed" in ds.dims else ds
 
@@ -104,7 +111,7 @@ def _phasor(value: complex, scale: float, rtol: float) -> tuple[str, str]:
 def _summary(page: _Page, scene, tree) -> None:
     from .tables import verdict
 
-    time, stars = tree["time"].ds, _first_speed(tree["stars"].ds)
+    time, stars = tree["time"].ds, _first_speed(_free_vector_stars(tree))
     orders = tree["orders"].ds
     rpm = ", ".join(f"{v:.6g}" for v in np.atleast_1d(time["rpm"].values))
     alias_f = float(np.max(orders["aliasing_error_force"].values))
@@ -160,7 +167,7 @@ def _stars(page: _Page, tree) -> None:
     from .plots import stars_figure
 
     page.add('<section id="stars"><h2>Crank stars and phasor diagrams</h2>')
-    page.figure(stars_figure(tree["stars"].ds), "Crank stars and the free force and moment phasors per order "
+    page.figure(stars_figure(_free_vector_stars(tree)), "Crank stars and the free force and moment phasors per order "
                 "(each cylinder's arrow head to tail, co- and counter-rotating).", "stars")
     page.add("</section>")
 

@@ -1,9 +1,11 @@
-"""The order-domain view of a time-domain Dataset: phasors per order, co/counter split."""
+"""The order-domain view: phasors per order, co/counter split, as a Dataset."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..labelled import SPEED_SCALING, Speeds, dataset, unit_speed_values
+from ..model.sampling import AccuracyWarning
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, aliasing_estimate, phasors, rotating_split
 
 
@@ -45,61 +47,79 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
         ``samples_per_rev``, exceeds 1e-6 (the orders asked for are not
         resolved).
     """
-    import xarray as xr
-
     attrs = dict(ds.attrs)
     samples = ds.sizes["angle"]
     kmax = int(max_order if max_order is not None else attrs.get("max_order", 12))
     if kmax > samples // 2 - 1:
         raise ValueError(f"max_order {kmax} needs more than {samples} samples per revolution")
-    sense = 1 if attrs.get("rotation") == "counterclockwise" else -1
     lead = tuple(d for d in ds["force"].dims if d not in ("axis", "angle"))
-    orders = np.arange(kmax + 1)
-
-    data = {}
-    for name, units in (("force", "N"), ("moment", "N m")):
-        values = ds[name].transpose(*lead, "axis", "angle").values
-        spectrum = phasors(values, backend, workers)
-        kept = spectrum[..., : kmax + 1]
-        z, t = kept[..., 2, :], -sense * kept[..., 1, :]
-        co, counter = rotating_split(z, t)
-        if f"aliasing_error_{name}" in ds:
+    # A sweep from simulate holds unit-speed arrays: transform those, scale lazily. Otherwise the values as given.
+    unit = {name: unit_speed_values(ds[name].variable) for name in ("force", "moment")}
+    swept = lead == ("speed",) and all(v is not None for v in unit.values())
+    speeds = Speeds(ds["speed"].values if swept else 1.0)
+    spectra, tails, scales = {}, {}, {}
+    for name in ("force", "moment"):
+        values = unit[name] if swept else ds[name].transpose(*lead, "axis", "angle").values
+        spectra[name] = phasors(values, backend, workers)
+        alias = ds.get(f"aliasing_error_{name}")
+        if alias is None:
+            tails[name] = aliasing_estimate(np.abs(spectra[name]), samples, kmax)
+        else:
             # From simulate, body by body: the total's tail misleads when the cylinders cancel orders
             # in the sampled tail band but not beyond it (or the other way round).
-            tail = ds[f"aliasing_error_{name}"].transpose(*lead, "axis").values
-        else:
-            tail = aliasing_estimate(np.abs(spectrum), samples, kmax)
-        data[name] = (lead + ("order", "axis"), np.swapaxes(kept, -1, -2), {
+            tails[name] = unit_speed_values(alias.variable) if swept else alias.transpose(*lead, "axis").values
+        scale = ds[f"{name}_scale"]
+        scales[name] = unit_speed_values(scale.variable) if swept else scale.values
+    coords = {name: ds[name].variable for name in ("speed", "rpm") if name in ds.coords}
+    attrs.pop(SPEED_SCALING, None)
+    return orders_dataset(spectra["force"], spectra["moment"], tails, scales, attrs, speeds, coords,
+                          lead=() if swept else lead, max_order=kmax, backend=backend)
+
+
+def orders_dataset(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dict, attrs: dict, speeds: Speeds,
+                   coords: dict, *, lead: tuple = (), max_order: int, backend: str = "scipy"):
+    """The order Dataset from the spectra (..., axis, order ≥ max_order) of
+    the total force and moment, their aliasing estimates (..., axis) and load
+    scales; values over ``lead`` dims as given, times ``speeds``' ω²."""
+    samples = int(attrs.get("samples_per_rev", 0)) or 2 * (force.shape[-1] - 1)
+    kmax = max_order
+    sense = 1 if attrs.get("rotation") == "counterclockwise" else -1
+    var = speeds.variable
+    data = {}
+    for name, spectrum, units in (("force", force, "N"), ("moment", moment, "N m")):
+        kept = spectrum[..., : kmax + 1]
+        co, counter = rotating_split(kept[..., 2, :], -sense * kept[..., 1, :])
+        data[name] = var(lead + ("order", "axis"), np.swapaxes(kept, -1, -2), {
             "units": units,
             "long_name": f"order phasor of the shaking {name}",
             "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude",
         })
-        data[f"{name}_rotating"] = (lead + ("order", "rotation"), np.stack([co, counter], axis=-1), {
+        data[f"{name}_rotating"] = var(lead + ("order", "rotation"), np.stack([co, counter], axis=-1), {
             "units": units,
             "long_name": f"co- and counter-rotating phasors of the transverse {name}",
             "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta); "
                            "t points 90 deg ahead of +z in the direction of rotation",
         })
-        data[f"aliasing_error_{name}"] = (lead + ("axis",), tail, {
+        data[f"aliasing_error_{name}"] = var(lead + ("axis",), tails[name], {
             "units": units,
             "long_name": f"estimated aliasing error of the {name} phasors (extrapolated spectral tail)",
         })
-        data[f"{name}_scale"] = ds[f"{name}_scale"]
-
-    coords = {
-        "order": ("order", orders, {"long_name": "order of crank speed", "units": "1"}),
-        "axis": ds["axis"],
+        data[f"{name}_scale"] = var(lead, scales[name], {
+            "units": units, "long_name": f"sum of single-body peak {name}s"})
+    coords = dict(coords)
+    coords.update({
+        "order": ("order", np.arange(kmax + 1), {"long_name": "order of crank speed", "units": "1"}),
+        "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
         "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
-    }
-    for name in ("speed", "rpm"):
-        if name in ds.coords:
-            coords[name] = ds[name]
+    })
+    # Relative errors do not depend on the speed: the unit-speed arrays (or each speed's) judge them.
     reached = 0.0
     for name in ("force", "moment"):
-        tail, scale = data[f"aliasing_error_{name}"][1], np.expand_dims(ds[f"{name}_scale"].values, -1)
-        relative = np.divide(tail, scale, out=np.zeros_like(tail), where=scale > 0)
+        tail, scale = np.asarray(tails[name]), np.expand_dims(np.asarray(scales[name], dtype=float), -1)
+        relative = np.divide(tail, scale, out=np.zeros(np.broadcast_shapes(tail.shape, scale.shape)), where=scale > 0)
         reached = max(reached, float(relative.max(initial=0.0)))
     _check_resolved(reached, float(attrs.get("accuracy_target", 0.0)), samples, kmax, attrs.get("engine", ""))
+    attrs = dict(attrs)
     attrs.update({
         "accuracy_reached": reached,
         "title": f"harmbal order spectrum: {attrs.get('engine', '')}",
@@ -109,7 +129,7 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
         "fft_backend": backend,
         "balanced_rtol": BALANCED_RTOL,
     })
-    return xr.Dataset(data, coords, attrs)
+    return dataset(data, coords, attrs)
 
 
 #: A fixed sampling whose estimated relative error exceeds this does not resolve the orders asked for.
@@ -120,8 +140,6 @@ def _check_resolved(reached: float, target: float, samples: int, max_order: int,
     """Warn when the estimated error misses the accuracy asked for, or, for a
     fixed sampling, when it is too large for orders ≤ max_order to mean much."""
     import warnings
-
-    from ..model.sampling import AccuracyWarning
 
     # The sampling is chosen from the decay rate of the harmonics, the estimate from the spectrum's
     # tail; the two can differ by a small factor, which is no reason to warn.

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..labelled import AXES, speed_axis
-from ..orders.phasors import order_phasors
+from ..labelled import AXES, Speeds, dataset, speed_axis
+from ..orders.phasors import OrderPhasors, order_phasors
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, is_balanced, rotating_split
 from ..orders.stars import _stars
 from ..scene.firing import cylinder_firing
@@ -56,23 +56,33 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         * ``firing_angle`` (cylinder) [rad], ``firing_sequence`` and
           ``firing_interval`` [rad] (firing).
     """
-    import xarray as xr
+    return stars_dataset(scene, order_phasors(scene, samples_per_rev=samples_per_rev, backend=backend))
 
-    p = order_phasors(scene, samples_per_rev=samples_per_rev, backend=backend)
+
+#: The free vectors of :func:`stars` that an analysis tree keeps in ``/orders`` only.
+FREE_VECTORS = ("force", "moment", "force_rotating", "moment_rotating")
+
+
+def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None):
+    """The Dataset of :func:`stars` from the scene's order phasors.
+
+    ``totals``: the unit-speed force and moment phasors (axis, order) of an
+    analysis tree's ``/orders``; then the free vectors are classified from
+    them and :data:`FREE_VECTORS` are left to ``/orders``
+    (:func:`with_free_vectors` puts them back)."""
     kmax = scene.sampling.max_order
     sense = scene.sense
-    lead, w2, coords = speed_axis(scene)
+    speeds = Speeds(scene.speeds)
+    var, coords = speeds.variable, speeds.coords()
     labels = [c.label for c in scene.cylinders]
-
-    def scaled(values):
-        return np.multiply.outer(w2, values) if lead else w2 * values
 
     def rotating(per_axis):
         return np.stack(rotating_split(per_axis[..., 2, :], -sense * per_axis[..., 1, :]), axis=-1)
 
     force_scale = float(p.peak_force.sum() + p.crankshaft_peak_force)
     moment_scale = float(p.peak_moment.sum() + p.crankshaft_peak_moment)
-    force, moment = p.force, p.moment
+    # In a tree the free vectors are /orders' (one set of totals judged once); alone, the order domain's.
+    force, moment = (p.force, p.moment) if totals is None else totals
     force_rot, moment_rot = rotating(force), rotating(moment)
     force_free = ~is_balanced(force_rot, force_scale)
     moment_free = ~is_balanced(moment_rot, moment_scale)
@@ -85,7 +95,6 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     cyl = scene.cylinders
     fire = cylinder_firing(cyl, scene.cycle, scene.firing_order)
 
-    lo = lead + ("order",)
     data = {
         "star_angle": (("order", "cylinder"), angles, {"units": "rad", "long_name": "crank star arm k·φ_i"}),
         "star_regular": ("order", regular, {"long_name": "crank star arms equally spaced with equal multiplicity"}),
@@ -93,27 +102,27 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         "bank_star_regular": (("order", "bank"), bank_regular, {"long_name": "crank star of one bank is regular"}),
         "bank_star_resultant": (("order", "bank"), bank_resultant,
                                 {"units": "1", "long_name": "sum of the unit arms of one bank's star"}),
-        "force": (lo + ("axis",), scaled(cleaned(force, force_scale).T),
-                  {"units": "N", "long_name": "free force phasor"}),
-        "moment": (lo + ("axis",), scaled(cleaned(moment, moment_scale).T),
-                   {"units": "N m", "long_name": "free moment phasor about the reference point"}),
-        "force_rotating": (lo + ("rotation",), scaled(cleaned(force_rot, force_scale)),
-                           {"units": "N", "long_name": "co- and counter-rotating free force phasors"}),
-        "moment_rotating": (lo + ("rotation",), scaled(cleaned(moment_rot, moment_scale)),
-                            {"units": "N m", "long_name": "co- and counter-rotating free moment phasors"}),
-        "force_cylinder": (lead + ("cylinder", "order", "rotation"), scaled(rotating(p.force_cylinder)),
-                           {"units": "N", "long_name": "one cylinder's rotating force phasors"}),
-        "moment_cylinder": (lead + ("cylinder", "order", "rotation"), scaled(rotating(p.moment_cylinder)),
-                            {"units": "N m", "long_name": "one cylinder's rotating moment phasors"}),
+        "force": var(("order", "axis"), cleaned(force, force_scale).T,
+                     {"units": "N", "long_name": "free force phasor"}),
+        "moment": var(("order", "axis"), cleaned(moment, moment_scale).T,
+                      {"units": "N m", "long_name": "free moment phasor about the reference point"}),
+        "force_rotating": var(("order", "rotation"), cleaned(force_rot, force_scale),
+                              {"units": "N", "long_name": "co- and counter-rotating free force phasors"}),
+        "moment_rotating": var(("order", "rotation"), cleaned(moment_rot, moment_scale),
+                               {"units": "N m", "long_name": "co- and counter-rotating free moment phasors"}),
+        "force_cylinder": var(("cylinder", "order", "rotation"), rotating(p.force_cylinder),
+                              {"units": "N", "long_name": "one cylinder's rotating force phasors"}),
+        "moment_cylinder": var(("cylinder", "order", "rotation"), rotating(p.moment_cylinder),
+                               {"units": "N m", "long_name": "one cylinder's rotating moment phasors"}),
         "force_free": (("order", "rotation"), force_free, {"long_name": "rotating force component is free"}),
         "moment_free": (("order", "rotation"), moment_free, {"long_name": "rotating moment component is free"}),
         "roll_free": ("order", roll_free, {"long_name": "moment about the crank axis is free"}),
-        "force_scale": (lead, w2 * force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
-        "moment_scale": (lead, w2 * moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
-        "aliasing_error_force": (lead, w2 * p.aliasing[0],
-                                 {"units": "N", "long_name": "estimated aliasing error of the force phasors"}),
-        "aliasing_error_moment": (lead, w2 * p.aliasing[1],
-                                  {"units": "N m", "long_name": "estimated aliasing error of the moment phasors"}),
+        "force_scale": var((), force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
+        "moment_scale": var((), moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
+        "aliasing_error_force": var((), p.aliasing[0],
+                                    {"units": "N", "long_name": "estimated aliasing error of the force phasors"}),
+        "aliasing_error_moment": var((), p.aliasing[1],
+                                     {"units": "N m", "long_name": "estimated aliasing error of the moment phasors"}),
         "firing_angle": ("cylinder", fire.angle, {"units": "rad", "long_name": "crank angle θ of firing"}),
         "firing_sequence": ("firing", [labels[i] for i in fire.sequence], {"long_name": "cylinder firing"}),
         "firing_interval": ("firing", fire.interval, {"units": "rad", "long_name": "crank angle to the next firing"}),
@@ -141,7 +150,10 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         "firing_order_given": "yes" if fire.given else "no",
         "firing_even": "yes" if fire.even else "no",
     })
-    return xr.Dataset(data, coords, attrs)
+    if totals is not None:
+        for name in FREE_VECTORS:
+            del data[name]
+    return dataset(data, coords, attrs)
 
 
 def verify_orders(scene: Scene, *, backend: str = "scipy"):
@@ -168,7 +180,7 @@ def verify_orders(scene: Scene, *, backend: str = "scipy"):
 
     p = order_phasors(scene, backend=backend)
     time = order_spectrum(simulate(scene, samples_per_rev=p.samples_per_rev), backend=backend)
-    lead, w2, coords = speed_axis(scene)
+    lead, w2, coords = speed_axis(scene.speeds)
     coords.update({
         "order": time["order"], "axis": time["axis"],
     })
@@ -198,3 +210,18 @@ def verify_orders(scene: Scene, *, backend: str = "scipy"):
         "tolerance": "verify_rtol x largest single-cylinder peak load + aliasing estimates of both paths",
         "passed": "yes" if passed else "no",
     })
+
+
+def with_free_vectors(stars_ds, orders_ds):
+    """An analysis tree's ``/stars`` with the free vectors of its ``/orders``
+    as :func:`stars` gives them: components at or below ``balanced_rtol`` ×
+    the load scale set to exactly 0."""
+    import xarray as xr
+
+    scales = {"force": orders_ds["force_scale"], "moment": orders_ds["moment_scale"]}
+    rtol = float(orders_ds.attrs.get("balanced_rtol", BALANCED_RTOL))
+    out = {}
+    for name in FREE_VECTORS:
+        value = orders_ds[name]
+        out[name] = xr.where(np.abs(value) <= rtol * scales[name.split("_")[0]], 0, value, keep_attrs=True)
+    return stars_ds.assign(out)

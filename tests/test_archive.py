@@ -106,14 +106,18 @@ def test_plain_xarray_reads_it(archive, tree):
         # complex values are stored as a trailing real/imag dimension
         assert orders.force.dims[-1] == "part"
         assert list(orders["part"].values) == ["real", "imag"]
-        np.testing.assert_array_equal(orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
-        np.testing.assert_array_equal(orders.force.isel(part=1).values, tree["orders"].ds.force.values.imag)
+        # a speed sweep is stored once at 1 rad/s: the value at each speed is the stored one times speed²
+        w2 = (orders.speed.values**2)[:, None, None]
+        assert "speed" not in orders.force.dims and "w**2" in orders.force.attrs["speed_scaling"]
+        np.testing.assert_array_equal(w2 * orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
+        np.testing.assert_array_equal(w2 * orders.force.isel(part=1).values, tree["orders"].ds.force.values.imag)
         time = plain["time"].ds
-        np.testing.assert_array_equal(time.force.values, tree["time"].ds.force.values)
+        np.testing.assert_array_equal(w2 * time.force.values, tree["time"].ds.force.values)
         for group in ("time", "orders"):
             for name in ("force", "moment"):
                 attrs = plain[group].ds[name].attrs
-                assert attrs["units"] == ("N" if name == "force" else "N m")
+                assert attrs["units_at_speed"] == ("N" if name == "force" else "N m")
+                assert attrs["units"] == attrs["units_at_speed"] + " s2"
                 assert attrs["long_name"]
         assert plain["time"].ds.angle.attrs["units"] == "rad"
 
@@ -127,11 +131,12 @@ def test_netcdf4_library_reads_it(archive, tree, scene_file):
         assert "crank axis" in nc.getncattr("conventions")
         assert nc["scene"].getncattr("scene_toml") == scene_file.read_text(encoding="utf-8")
         force = nc["time"].variables["force"]
-        assert force.getncattr("units") == "N"
+        assert force.getncattr("units") == "N s2" and force.getncattr("units_at_speed") == "N"
         assert force.getncattr("long_name")
-        np.testing.assert_array_equal(force[:], tree["time"].ds.force.values)
+        w2 = nc["time"].variables["speed"][:] ** 2
+        np.testing.assert_array_equal(w2[:, None, None] * force[:], tree["time"].ds.force.values)
         moment = nc["orders"].variables["moment"]
-        assert moment.getncattr("units") == "N m"
+        assert moment.getncattr("units_at_speed") == "N m"
         assert moment.dimensions[-1] == "part"
 
 

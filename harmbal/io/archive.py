@@ -4,8 +4,14 @@ A :class:`xarray.DataTree` is written with h5netcdf as one netCDF-4 file, one
 group per node (``/scene``, ``/time``, ``/orders`` …). netCDF has no complex
 type that every reader understands, so each complex variable is stored as a
 real variable with a trailing dimension ``part`` = (``real``, ``imag``) and
-the attribute ``complex_encoding``; :func:`open_archive` restores it. Any
-netCDF tool can read the file as it is.
+the attribute ``complex_encoding``; :func:`open_archive` restores it. A
+variable of a speed sweep is the unit-speed array times ω² (see
+:mod:`harmbal.labelled`): it is stored once, at 1 rad/s, without the
+``speed`` dimension, with units multiplied by s² and the attributes
+``speed_scaling`` (how to get the value at a speed: times speed², the
+``speed`` coordinate in rad/s) and ``units_at_speed``; :func:`open_archive`
+restores the lazy per-speed variable. Any netCDF tool can read the file as
+it is.
 """
 
 from __future__ import annotations
@@ -16,10 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from .files import atomic_path
+from ..labelled import SPEED_SCALING, SPEED_SCALING_RULE, Speeds, unit_speed_values
 
 PART = "part"
 _ENCODING_ATTR = "complex_encoding"
 _ENCODING = "real and imaginary parts along the last dimension 'part'"
+_UNITS_AT_SPEED = "units_at_speed"
 
 
 class ArchiveError(ValueError):
@@ -27,31 +35,52 @@ class ArchiveError(ValueError):
 
 
 def _encode(ds):
+    """Complex variables as (..., part); lazily speed-scaled variables as
+    their unit-speed array, without the ``speed`` dimension."""
     import xarray as xr
 
-    if not any(np.iscomplexobj(v) for v in ds.data_vars.values()):
-        return ds
-    out = ds.copy()
+    out = {}
     for name, var in ds.data_vars.items():
-        if np.iscomplexobj(var):
-            stacked = np.stack([var.values.real, var.values.imag], axis=-1)
-            out[name] = xr.Variable(var.dims + (PART,), stacked, {**var.attrs, _ENCODING_ATTR: _ENCODING})
-    return out.assign_coords({PART: (PART, ["real", "imag"])})
+        variable, attrs = var.variable, dict(var.attrs)
+        unit = unit_speed_values(variable)
+        if unit is not None:
+            variable = xr.Variable(variable.dims[1:], unit)
+            attrs.update({SPEED_SCALING: SPEED_SCALING_RULE, _UNITS_AT_SPEED: attrs.get("units", "1")})
+            attrs["units"] = f"{attrs['units']} s2" if attrs.get("units", "1") != "1" else "s2"
+        if np.iscomplexobj(variable.dtype.type()):
+            values = variable.values
+            variable = xr.Variable(variable.dims + (PART,), np.stack([values.real, values.imag], axis=-1))
+            attrs[_ENCODING_ATTR] = _ENCODING
+        if variable is not var.variable:
+            out[name] = xr.Variable(variable.dims, variable.data, attrs)
+    if not out:
+        return ds
+    encoded = ds.assign(out)
+    return encoded.assign_coords({PART: (PART, ["real", "imag"])}) if any(
+        v.attrs.get(_ENCODING_ATTR) == _ENCODING for v in out.values()) else encoded
 
 
 def _decode(ds):
     import xarray as xr
 
-    encoded = [name for name, var in ds.data_vars.items() if var.attrs.get(_ENCODING_ATTR) == _ENCODING]
-    if not encoded:
+    out = {}
+    for name, var in ds.data_vars.items():
+        attrs = dict(var.attrs)
+        variable = var.variable
+        if attrs.pop(_ENCODING_ATTR, None) == _ENCODING:
+            variable = variable.transpose(..., PART)
+            values = variable.values[..., 0] + 1j * variable.values[..., 1]
+            variable = xr.Variable(variable.dims[:-1], values)
+        if attrs.pop(SPEED_SCALING, None) is not None:
+            attrs["units"] = attrs.pop(_UNITS_AT_SPEED)
+            variable = Speeds(ds["speed"].values).variable(variable.dims, variable.values, attrs)
+        if variable is not var.variable:
+            out[name] = xr.Variable(variable.dims, variable._data, attrs)
+    if not out:
         return ds
-    out = ds.copy()
-    for name in encoded:
-        var = ds[name].variable.transpose(..., PART)
-        attrs = {k: v for k, v in var.attrs.items() if k != _ENCODING_ATTR}
-        values = var.values[..., 0] + 1j * var.values[..., 1]
-        out[name] = xr.Variable(var.dims[:-1], values, attrs)
-    return out.drop_vars(PART)
+    decoded = ds.drop_vars(list(out)).assign(out)
+    decoded = decoded[[n for n in ds.data_vars]]  # keep the stored order of variables
+    return decoded.drop_vars(PART) if PART in decoded.coords else decoded
 
 
 def save(tree, path: str | os.PathLike) -> Path:

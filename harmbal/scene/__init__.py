@@ -2,6 +2,7 @@
 converted to SI once (units, schema, the readers of each table, balancer
 elements, design/verify requests, firing order, the scene writer)."""
 
-from .reader import EFFECTS, MAX_SPEEDS, Cylinder, Model, Scene, SceneError, load_scene, scene_from_text
+from .reader import load_scene, scene_from_text
+from .schema import EFFECTS, MAX_SPEEDS, Cylinder, Model, Scene, SceneError
 
 __all__ = ["EFFECTS", "MAX_SPEEDS", "Cylinder", "Model", "Scene", "SceneError", "load_scene", "scene_from_text"]

@@ -153,6 +153,7 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
     if totals is not None:
         for name in FREE_VECTORS:
             del data[name]
+        del coords["axis"]  # only the free vectors have it
     return dataset(data, coords, attrs)
 
 

@@ -1,0 +1,139 @@
+"""Reading [engine] (name, cycle, rotation, speeds or a speed sweep, the
+reference point, the firing order), [model] and [sampling]."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, EFFECTS, MAX_SPEEDS, PISTON_MODELS, ROD_MODELS,
+                     ROTATIONS, Cylinder, Model, Sampling, _closest)
+
+_ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
+_SWEEP_KEYS = {"from", "to", "points"}
+_MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
+_SAMPLING_KEYS = {"samples_per_rev", "accuracy", "max_order"}
+
+
+class EngineTables:
+    """[engine], [model] and [sampling]; mixed into the scene reader, whose
+    primitives (``fail``, ``table``, ``quantity``, ...) it uses."""
+
+    def engine(self, data: Mapping) -> tuple[dict, dict[str, Any]]:
+        """The raw [engine] table (the firing order is read from it once the
+        cylinders are known) and the Scene fields it gives."""
+        engine = self.table(data, "engine", "engine", _ENGINE_KEYS, required=True)
+        name = self.string(engine, "name", "engine")
+        description = self.string(engine, "description", "engine", "")
+        cycle = engine.get("cycle", 4)
+        if not isinstance(cycle, int) or isinstance(cycle, bool) or cycle not in (2, 4):
+            self.fail("engine.cycle", cycle, "must be 2 or 4 (strokes)")
+            cycle = 4
+        rotation = self.choice(engine, "rotation", "engine", ROTATIONS, "clockwise")
+        speeds = self.speeds(engine)
+        reference = self.quantity_list(engine, "reference_point", "engine", "length", 3, [0, 0, 0])
+        return engine, {"name": name, "description": description, "cycle": cycle, "rotation": rotation,
+                        "speeds": speeds, "reference_point": reference}
+
+    def speeds(self, engine: Mapping) -> tuple[float, ...]:
+        raw = engine.get("speed", _MISSING)
+        if isinstance(raw, Mapping):
+            return self.speed_sweep(raw)
+        if isinstance(raw, list):
+            if not raw:
+                self.fail("engine.speed", raw, "give at least one speed")
+            items = {f"speed[{i + 1}]": v for i, v in enumerate(raw)}
+            speeds = tuple(self.quantity(items, key, "engine", "speed", positive=True) for key in items)
+        else:
+            speeds = (self.quantity(engine, "speed", "engine", "speed", positive=True),)
+        finite = [s for s in speeds if math.isfinite(s)]
+        if len(set(finite)) != len(finite):
+            self.fail("engine.speed", raw, "speeds must be distinct")
+        return speeds
+
+    def speed_sweep(self, table: Mapping) -> tuple[float, ...]:
+        """``speed = {from = ..., to = ..., points = N}``: N speeds evenly spaced."""
+        self.unknown(table, "engine.speed", _SWEEP_KEYS)
+        low = self.quantity(table, "from", "engine.speed", "speed", positive=True)
+        high = self.quantity(table, "to", "engine.speed", "speed", positive=True)
+        if "points" not in table:
+            self.fail("engine.speed.points", _MISSING, "missing required key")
+            return (math.nan,)
+        points = self.integer(table, "points", "engine.speed", None, minimum=2)
+        if points is None:
+            return (math.nan,)
+        if points > MAX_SPEEDS:
+            self.fail("engine.speed.points", points, f"must be at most {MAX_SPEEDS}")
+            return (math.nan,)
+        if not (math.isfinite(low) and math.isfinite(high)):
+            return (math.nan,)
+        if not low < high:
+            self.fail("engine.speed.to", table.get("to"), "must be above engine.speed.from")
+            return (math.nan,)
+        return tuple(np.linspace(low, high, points).tolist())
+
+    def firing_order(self, engine: Mapping, cylinders: tuple[Cylinder, ...], cycle: int) -> tuple[int, ...] | None:
+        """The firing order as cylinder indices, checked against the geometry."""
+        from .firing import FiringOrderError, cylinder_firing
+
+        raw = engine.get("firing_order", _MISSING)
+        if raw is _MISSING:
+            return None
+        key = "engine.firing_order"
+        labels = [c.label for c in cylinders]
+        if not isinstance(raw, list) or any(isinstance(v, bool) or not isinstance(v, (str, int)) for v in raw):
+            self.fail(key, raw, "must be a list of cylinder labels")
+            return None
+        given = [str(v) for v in raw]
+        if sorted(given) != sorted(labels):
+            self.fail(key, raw, f"must name every cylinder exactly once: {', '.join(labels)}")
+            return None
+        order = tuple(labels.index(v) for v in given)
+        if self.problems:  # the geometry may be invalid; check the order once it is not
+            return order
+        try:
+            cylinder_firing(cylinders, cycle, order)
+        except FiringOrderError as exc:
+            self.fail(key, raw, f"not possible with these throws and banks: {exc}")
+            return None
+        return order
+
+    def model(self, table: Mapping) -> Model:
+        effects_raw = table.get("effects", list(EFFECTS))
+        effects: set[str] = set()
+        if not isinstance(effects_raw, list) or not all(isinstance(e, str) for e in effects_raw):
+            self.fail("model.effects", effects_raw, "must be a list of effect names")
+        else:
+            for effect in effects_raw:
+                if effect not in EFFECTS:
+                    hint = _closest(effect, set(EFFECTS))
+                    self.fail("model.effects", effect, "unknown effect" + (f" (did you mean {hint!r}?)" if hint else "")
+                              + f"; known: {', '.join(EFFECTS)}")
+                effects.add(effect)
+            if len(effects) != len(effects_raw):
+                self.fail("model.effects", effects_raw, "an effect is listed twice")
+        piston = self.choice(table, "piston", "model", PISTON_MODELS, "exact")
+        harmonics = self.integer(table, "series_harmonics", "model", 2, minimum=1)
+        if "series_harmonics" in table and piston != "series":
+            self.fail("model.series_harmonics", table["series_harmonics"], 'only used with piston = "series"')
+        rod = self.choice(table, "rod", "model", ROD_MODELS, "rigid")
+        return Model(effects=frozenset(effects & set(EFFECTS)), piston=piston, series_harmonics=harmonics or 2, rod=rod)
+
+    def sampling(self, table: Mapping) -> Sampling:
+        max_order = self.integer(table, "max_order", "sampling", DEFAULT_MAX_ORDER, minimum=1)
+        samples = self.integer(table, "samples_per_rev", "sampling", None, minimum=8)
+        accuracy = None
+        if "accuracy" in table:
+            if samples is not None:
+                self.fail("sampling.accuracy", table["accuracy"], "give samples_per_rev or accuracy, not both")
+            accuracy = self.quantity(table, "accuracy", "sampling", "dimensionless", positive=True)
+            if math.isfinite(accuracy) and not 1e-16 <= accuracy < 0.1:
+                self.fail("sampling.accuracy", table["accuracy"], "must lie in [1e-16, 0.1) (relative error)")
+        elif samples is None:
+            accuracy = DEFAULT_ACCURACY
+        if samples is not None and max_order is not None and samples < 2 * max_order + 2:
+            self.fail("sampling.samples_per_rev", samples,
+                      f"must be at least 2*max_order + 2 = {2 * max_order + 2} to resolve order {max_order}")
+        return Sampling(samples_per_rev=samples, accuracy=accuracy, max_order=max_order or DEFAULT_MAX_ORDER)

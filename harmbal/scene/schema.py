@@ -1,0 +1,214 @@
+"""The validated scene and its vocabulary: the frozen dataclasses a scene is
+read into (SI units throughout), the names a scene may use (effects, models,
+rotations), the defaults, and the problems a reader reports.
+
+Nothing here reads TOML; :mod:`.reader` and the ``read_*`` modules fill these
+in. The format is documented in ``docs/scenes.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from .elements import LeverBalancer, Shaft
+from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
+
+EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
+ROD_MODELS = ("rigid", "two_point", "two_point_couple")
+PISTON_MODELS = ("exact", "series")
+ROTATIONS = ("clockwise", "counterclockwise")
+
+DEFAULT_ACCURACY = 1e-12
+DEFAULT_MAX_ORDER = 12
+#: Most speeds a sweep may ask for (one evaluation serves them all; 10⁶ keeps the Datasets ~1 GB at most).
+MAX_SPEEDS = 1_000_000
+
+
+# --------------------------------------------------------------------------
+# Problems
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a scene: where, what value, which rule."""
+
+    source: str
+    key: str
+    value: Any
+    rule: str
+
+    def __str__(self) -> str:
+        shown = "" if self.value is _MISSING else f" = {self.value!r}"
+        return f"{self.source}: {self.key}{shown}: {self.rule}"
+
+
+class SceneError(ValueError):
+    """A scene that cannot be used; ``problems`` lists every reason."""
+
+    def __init__(self, problems: list[Problem]):
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class _Missing:
+    def __repr__(self) -> str:
+        return "<missing>"
+
+
+_MISSING = _Missing()
+
+
+def _join(path: str, key: str) -> str:
+    """The key path of ``key`` inside the table at ``path`` ("" is the top level)."""
+    return f"{path}.{key}" if path else key
+
+
+def _closest(word: str, options: set[str]) -> str | None:
+    import difflib
+
+    matches = difflib.get_close_matches(word, sorted(options), n=1, cutoff=0.6)
+    return matches[0] if matches else None
+
+
+# --------------------------------------------------------------------------
+# The validated scene (SI units throughout)
+
+
+@dataclass(frozen=True)
+class Piston:
+    """Piston group: mass [kg] and CG offset from the piston-pin axis [m]
+    (``cg_axial`` along the cylinder axis away from the crank, ``cg_lateral``
+    perpendicular to it, positive in the direction of rotation)."""
+
+    mass: float
+    cg_axial: float = 0.0
+    cg_lateral: float = 0.0
+
+
+@dataclass(frozen=True)
+class ConRod:
+    """Connecting rod as a rigid body.
+
+    ``cg_from_big_end`` [m] is measured along the rod axis from the crank-pin
+    centre; ``cg_lateral`` [m] is the CG's distance from the rod axis (positive
+    to the side the direction of rotation points to when the rod is at top dead
+    centre); ``inertia`` [kg m^2] is about the CG, ``None`` when the rod was
+    given only as a two-point split.
+    """
+
+    mass: float
+    cg_from_big_end: float
+    cg_lateral: float = 0.0
+    inertia: float | None = None
+
+    def split(self, length: float) -> tuple[float, float]:
+        """Big-end and small-end masses [kg] keeping mass and CG."""
+        small = self.mass * self.cg_from_big_end / length
+        return self.mass - small, small
+
+
+@dataclass(frozen=True)
+class Unbalance:
+    """A rotating static unbalance: mass x radius [kg m] at ``angle`` [rad]
+    (in the direction of rotation) and axial position ``x`` [m]."""
+
+    unbalance: float
+    angle: float
+    x: float
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """One cylinder with its own throw, bank, position, geometry and masses."""
+
+    label: str
+    throw: float
+    bank: float
+    x: float
+    crank_radius: float
+    rod_length: float
+    pin_offset: float
+    cylinder_offset: float
+    piston: Piston
+    rod: ConRod
+    #: Unbalances on this throw; angles relative to the throw, x absolute.
+    throw_unbalances: tuple[Unbalance, ...] = ()
+
+    @property
+    def offset(self) -> float:
+        """Total offset [m] of the piston-pin path from the crank axis."""
+        return self.pin_offset + self.cylinder_offset
+
+
+@dataclass(frozen=True)
+class Model:
+    """What to simulate and with which approximations."""
+
+    effects: frozenset[str] = frozenset(EFFECTS)
+    piston: str = "exact"
+    series_harmonics: int = 2
+    rod: str = "rigid"
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """Either a fixed number of samples per revolution or a target accuracy."""
+
+    samples_per_rev: int | None = None
+    accuracy: float | None = DEFAULT_ACCURACY
+    max_order: int = DEFAULT_MAX_ORDER
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated engine description in SI units.
+
+    Build one with :func:`load_scene`.
+    """
+
+    name: str
+    cycle: int
+    rotation: str
+    speeds: tuple[float, ...]
+    reference_point: tuple[float, float, float]
+    cylinders: tuple[Cylinder, ...]
+    crankshaft_unbalances: tuple[Unbalance, ...] = ()
+    #: Balance shafts, Lanchester pairs (two shafts each) and the crankshaft's
+    #: CAD mass data (a shaft at ratio 1 on the crank axis).
+    shafts: tuple[Shaft, ...] = ()
+    #: Lever (linkage) balancers: four-bars driven by a second crank pin.
+    levers: tuple[LeverBalancer, ...] = ()
+    model: Model = field(default_factory=Model)
+    sampling: Sampling = field(default_factory=Sampling)
+    description: str = ""
+    #: Firing order as cylinder indices (0-based), if the scene gives one.
+    firing_order: tuple[int, ...] | None = None
+    #: What ``harmbal design`` should design ([design]) and what
+    #: ``harmbal verify`` checks ([verify]), if the scene says.
+    design: DesignRequest | LeverDesignRequest | None = None
+    verify: VerifyRequest | None = None
+    source: str = "<mapping>"
+    source_text: str = ""
+
+    def with_effects(self, effects: set[str] | frozenset[str]) -> "Scene":
+        """The same scene simulating only those of its effects in ``effects``."""
+        return replace(self, model=replace(self.model, effects=self.model.effects & effects))
+
+    def with_speeds(self, speeds) -> "Scene":
+        """The same scene at other crank speeds [rad/s] (any number, each > 0,
+        distinct): one evaluation of the model serves them all (ω² scaling)."""
+        values = np.atleast_1d(np.asarray(speeds, dtype=float))
+        if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values) & (values > 0)):
+            raise ValueError("speeds must be a non-empty 1-D sequence of finite speeds > 0 [rad/s]")
+        if np.unique(values).size != values.size:
+            raise ValueError("speeds must be distinct")
+        return replace(self, speeds=tuple(values.tolist()))
+
+    @property
+    def sense(self) -> int:
+        """+1 if the crank turns about +x (counterclockwise seen from the
+        front), -1 if clockwise seen from the front."""
+        return 1 if self.rotation == "counterclockwise" else -1

@@ -39,3 +39,75 @@ def test_no_public_name_is_shadowed_by_a_submodule():
 
     submodules = {m.name for m in pkgutil.iter_modules(harmbal.__path__)}
     assert not submodules & set(harmbal.__all__)
+
+
+#: The pipeline's stages, bottom to top: a module may import only from its own stage or below.
+STAGES = {"_version": 0, "labelled": 0, "scene": 1, "model": 2, "orders": 3, "views": 4, "balance": 5, "io": 6,
+          "reporting": 7, "analysis": 8, "bench": 8, "reference": 8, "cli": 9, "__main__": 10, "__init__": 10}
+
+
+def _imports():
+    """Every harmbal module and the harmbal modules it imports (at the top or
+    inside functions), from the source."""
+    import ast
+    from pathlib import Path
+
+    root = Path(harmbal.__file__).parent
+    graph = {}
+    for path in root.rglob("*.py"):
+        parts = path.relative_to(root).with_suffix("").parts
+        module = ".".join(parts)
+        package = parts[:-1] if parts[-1] != "__init__" else parts[:-1]
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = list(package[: len(package) - node.level + 1])
+                target = base + (node.module.split(".") if node.module else [])
+                names = [target + [a.name] for a in node.names] if not node.module else [target]
+                found.update(".".join(t) for t in names)
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("harmbal."):
+                found.add(node.module[len("harmbal."):])
+            elif isinstance(node, ast.Import):
+                found.update(a.name[len("harmbal."):] for a in node.names if a.name.startswith("harmbal."))
+        modules = {".".join(p.relative_to(root).with_suffix("").parts) for p in root.rglob("*.py")}
+        graph[module] = {_resolve(m, modules) for m in found} - {module, ""}
+    return graph
+
+
+def _resolve(name: str, modules: set) -> str:
+    """The module an import names: itself, its package's __init__, or (for
+    ``from package import name``) the package."""
+    for candidate in (name, f"{name}.__init__", name.rpartition(".")[0], f"{name.rpartition('.')[0]}.__init__"):
+        if candidate in modules:
+            return candidate
+    return ""
+
+
+def test_imports_only_go_down_the_pipeline():
+    graph = _imports()
+    assert "scene.__init__" in graph["analysis"] and "orders.spectrum" in graph["views.time"]  # the parser sees them
+    upward = [(module, target) for module, targets in graph.items() for target in targets
+              if STAGES[target.split(".")[0]] > STAGES[module.split(".")[0]]]
+    assert not upward, upward
+    assert {m.split(".")[0] for m in graph} <= set(STAGES)
+
+
+def test_no_import_circles():
+    graph = _imports()
+    # Package __init__ files re-export their own modules; a circle through them is not one between concerns.
+    graph = {m: {t for t in ts if not t.endswith("__init__") and t in graph} for m, ts in graph.items()}
+    state, circles = {}, []
+
+    def visit(module, path):
+        state[module] = "open"
+        for target in sorted(graph.get(module, ())):
+            if state.get(target) == "open":
+                circles.append(path[path.index(target):] + [target])
+            elif target not in state:
+                visit(target, path + [target])
+        state[module] = "done"
+
+    for module in sorted(graph):
+        if module not in state:
+            visit(module, [module])
+    assert not circles, circles

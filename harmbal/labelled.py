@@ -151,7 +151,6 @@ def _as_variable(value):
 
 def _dataset_direct(data: dict, coords: dict, attrs: dict):
     import xarray as xr
-    from xarray.core.indexes import PandasIndex
 
     variables, indexes, dims = {}, {}, {}
     for name, var in {**coords, **data}.items():
@@ -161,12 +160,34 @@ def _dataset_direct(data: dict, coords: dict, attrs: dict):
         variables[name] = var
     for name, var in coords.items():
         if var.dims == (name,):
-            index = PandasIndex.from_variables({name: var}, options={})
+            index = _index(name, var.dtype.str, var.shape, var.values.tobytes(), var)
             indexes[name] = index
             variables.update(index.create_variables({name: var}))
     names = list(coords) + [n for n in data if n not in coords]
     return xr.Dataset._construct_direct({n: variables[n] for n in names}, set(coords), dims, attrs=dict(attrs),
                                         indexes=indexes)
+
+
+def _index(name: str, dtype: str, shape: tuple, data: bytes, variable):
+    """The pandas index of a dimension coordinate; indexes are immutable, so
+    one serves every Dataset with the same coordinate values (axis, order,
+    rotation, angle …), and building it is the dearest part of a Dataset."""
+    if len(data) > 1 << 16:  # a long sweep's speeds: not worth keeping
+        from xarray.core.indexes import PandasIndex
+
+        return PandasIndex.from_variables({name: variable}, options={})
+    key = (name, dtype, shape, data)
+    index = _INDEXES.get(key)
+    if index is None:
+        from xarray.core.indexes import PandasIndex
+
+        if len(_INDEXES) > 256:
+            _INDEXES.clear()
+        index = _INDEXES[key] = PandasIndex.from_variables({name: variable}, options={})
+    return index
+
+
+_INDEXES: dict = {}
 
 
 def tree(root_attrs: dict, groups: dict):

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-from ..scene import Scene
 
 
 #: Angles of a crank star closer than this [rad] form one arm.
@@ -40,11 +41,18 @@ def star_is_regular(angles: np.ndarray, tol: float = STAR_TOL) -> bool:
     return bool(np.all(np.abs(gaps - 2 * np.pi / m) <= m * tol))
 
 
-def _stars(scene: Scene, kmax: int):
+def crank_stars(throws: tuple[float, ...], banks: tuple[float, ...], max_order: int):
     """Star angles (order, cylinder), regularity and resultants of the whole
-    crank and of each bank."""
-    throw = np.array([c.throw for c in scene.cylinders])
-    bank = np.array([c.bank for c in scene.cylinders])
+    crank and of each bank, for cylinders with these throw and bank angles
+    [rad]. Cached: a design loop or a repeated analysis asks for the same
+    stars again (read-only arrays)."""
+    return _crank_stars(tuple(map(float, throws)), tuple(map(float, banks)), int(max_order))
+
+
+@functools.lru_cache(maxsize=256)
+def _crank_stars(throws: tuple[float, ...], banks: tuple[float, ...], kmax: int):
+    throw = np.array(throws)
+    bank = np.array(banks)
     banks = []
     for b in bank:
         if not any(abs(np.remainder(b - q + np.pi, 2 * np.pi) - np.pi) <= STAR_TOL for q in banks):
@@ -56,4 +64,7 @@ def _stars(scene: Scene, kmax: int):
     regular = np.array([star_is_regular(row) for row in angles])
     bank_regular = np.array([[star_is_regular(row[m]) for m in member] for row in angles])
     bank_resultant = np.stack([unit[:, m].sum(axis=1) for m in member], axis=1)
-    return angles, regular, unit.sum(axis=1), np.array(banks), bank_regular, bank_resultant
+    out = angles, regular, unit.sum(axis=1), np.array(banks), bank_regular, bank_resultant
+    for array in out:
+        array.flags.writeable = False
+    return out

@@ -7,7 +7,7 @@ import numpy as np
 from ..labelled import AXES, Speeds, dataset, speed_axis
 from ..orders.phasors import OrderPhasors, order_phasors
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, is_balanced, rotating_split
-from ..orders.stars import _stars
+from ..orders.stars import crank_stars
 from ..scene.firing import cylinder_firing
 from ..scene import Scene
 from .time import attributes
@@ -91,7 +91,7 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
     def cleaned(values, scale):
         return np.where(is_balanced(values, scale), 0, values)
 
-    angles, regular, resultant, banks, bank_regular, bank_resultant = _stars(scene, kmax)
+    angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars([c.throw for c in scene.cylinders], [c.bank for c in scene.cylinders], kmax)
     cyl = scene.cylinders
     fire = cylinder_firing(cyl, scene.cycle, scene.firing_order)
 

@@ -80,7 +80,8 @@ def test_outputs_equal_the_legacy_archive(stem, monkeypatch):
                          attrs=False)  # /orders' names for them
         else:
             assert not missing, (group, missing)
-        _compare(old_ds, new_ds, f"/{group}")
+        # The old /verify passed attributes on through its label arithmetic by accident (units on booleans).
+        _compare(old_ds, new_ds, f"/{group}", attrs=group != "verify")
         for key, value in old_ds.attrs.items():
             if key not in CODE_ATTRS:
                 assert key in new_ds.attrs, (group, key)

@@ -490,7 +490,16 @@ def test_generated_dataset_is_up_to_date(stem, monkeypatch):
     """Oracle: the committed file; datasets/make_balanced.py rewrites it."""
     monkeypatch.chdir(ROOT)
     name, _ = make_balanced.VARIANTS[stem]
-    assert make_balanced.designed_text(stem) == (ENGINES / f"{name}.toml").read_text(encoding="utf-8")
+    written = make_balanced.designed_text(stem)
+    committed = (ENGINES / f"{name}.toml").read_text(encoding="utf-8")
+    # The text must match except in the last digits of the solved numbers: the LP and least-squares solvers
+    # of another scipy/numpy build round differently (seen: 1e-15 relative on the lever weight's CG).
+    assert _NUMBER.sub("#", written) == _NUMBER.sub("#", committed)
+    np.testing.assert_allclose([float(x) for x in _NUMBER.findall(written)],
+                               [float(x) for x in _NUMBER.findall(committed)], rtol=1e-9, atol=1e-12)
+
+
+_NUMBER = re.compile(r"-?\d+\.?\d*(?:[eE][-+]?\d+)?")
 
 
 # --------------------------------------------------------------------------

@@ -5,6 +5,7 @@ Oracles: each speed of a sweep equals a scene run at that speed alone
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ import harmbal as hb
 from harmbal.cli import main
 from harmbal.scene import MAX_SPEEDS, SceneError
 
+ROOT = Path(__file__).resolve().parent.parent
 SWEEP = {"from": "600 rpm", "to": "8000 rpm", "points": 10_000}
 
 
@@ -91,3 +93,31 @@ def test_cli_prints_the_ends_of_a_long_sweep(tmp_path, capsys):
     assert "100 speeds from 600 to 8000 rpm" in out
     assert [line.split(" rpm")[0] for line in out.splitlines() if line.startswith("Speed ")] == \
         ["Speed 600", "Speed 8000"]
+
+
+def test_a_million_speeds_hold_no_per_speed_array():
+    """A 10⁶-speed sweep keeps the unit-speed arrays and multiplies out only
+    what is read; the value read equals an analysis at that speed alone."""
+    import gc
+    import tracemalloc
+
+    scene = hb.load_scene(ROOT / "datasets" / "engines" / "v8-cross-plane.toml")
+    speeds = np.linspace(50.0, 800.0, 1_000_000)
+    hb.analyse(scene)  # caches and imports out of the measurement
+    tracemalloc.start()
+    tree = hb.analyse(scene.with_speeds(speeds))
+    _, peak = tracemalloc.get_traced_memory()
+    got = tree["orders"].ds.moment.isel(speed=123_456).values
+    time_got = tree["time"].ds.force.isel(speed=-1).values
+    del tree
+    gc.collect()
+    left, _ = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    # Per group a few copies of the speed coordinates (8 MB each); one (speed, order, axis) array alone is 624 MB.
+    assert peak < 200e6, peak
+    assert left < 5e6, left  # nothing stays alive after the tree is gone
+    alone = hb.analyse(scene.with_speeds([speeds[123_456]]))
+    want = alone["orders"].ds.moment.values
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * np.abs(want).max())
+    want = hb.analyse(scene.with_speeds([speeds[-1]]))["time"].ds.force.values
+    np.testing.assert_allclose(time_got, want, rtol=0, atol=1e-14 * np.abs(want).max())

@@ -173,18 +173,22 @@ def _index(name: str, dtype: str, shape: tuple, data: bytes, variable):
     one serves every Dataset with the same coordinate values (axis, order,
     rotation, angle …), and building it is the dearest part of a Dataset."""
     if len(data) > 1 << 16:  # a long sweep's speeds: not worth keeping
-        from xarray.core.indexes import PandasIndex
-
-        return PandasIndex.from_variables({name: variable}, options={})
+        return _pandas_index(name, variable)
     key = (name, dtype, shape, data)
     index = _INDEXES.get(key)
     if index is None:
-        from xarray.core.indexes import PandasIndex
-
         if len(_INDEXES) > 256:
             _INDEXES.clear()
-        index = _INDEXES[key] = PandasIndex.from_variables({name: variable}, options={})
+        index = _INDEXES[key] = _pandas_index(name, variable)
     return index
+
+
+def _pandas_index(name: str, variable):
+    # Built directly: PandasIndex.from_variables checks for unit-aware arrays and so imports pint (60 ms).
+    import pandas as pd
+    from xarray.core.indexes import PandasIndex
+
+    return PandasIndex(pd.Index(variable.values), name, coord_dtype=variable.dtype)
 
 
 _INDEXES: dict = {}

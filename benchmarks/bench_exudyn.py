@@ -85,6 +85,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from timing import median_seconds
+
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -116,16 +118,6 @@ RIGID_EFFECTS = {"reciprocating", "rotating", "rod_inertia"}
 
 
 # -- harmbal side (public API) ---------------------------------------------------
-
-def median_seconds(function, repeat: int) -> float:
-    function()
-    samples = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        samples.append(time.perf_counter() - start)
-    return statistics.median(samples)
-
 
 def _first_speed(data):
     return data.isel(speed=0) if "speed" in data.dims else data

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import os
 import platform
+import statistics
+import time
 import timeit
 
 
@@ -15,6 +17,18 @@ def min_seconds(function, repeat: int) -> float:
     timer = timeit.Timer(function)
     number, _ = timer.autorange()
     return min(timer.repeat(repeat=repeat, number=number)) / number
+
+
+def median_seconds(function, repeat: int) -> float:
+    """Median of ``repeat`` timed calls, after one warm-up call (imports and
+    caches paid once)."""
+    function()
+    samples = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        samples.append(time.perf_counter() - start)
+    return statistics.median(samples)
 
 
 def machine(repeat: int) -> str:

@@ -149,4 +149,4 @@ def _check_resolved(reached: float, target: float, samples: int, max_order: int,
                  f"{UNRESOLVED:g}: orders up to {max_order} are not resolved")
         warnings.warn(f"{engine}: with {samples} samples per revolution the estimated relative error of the order "
                       f"phasors is {reached:.2g}, above {asked}; use more samples per revolution (or "
-                      "sampling.accuracy)", AccuracyWarning, stacklevel=3)
+                      "sampling.accuracy)", AccuracyWarning, stacklevel=4)

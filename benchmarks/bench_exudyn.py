@@ -141,7 +141,7 @@ def array_path(scene):
     import importlib
 
     omega2 = float(scene.speeds[0]) ** 2
-    for module in ("harmbal.orders.phasors", "harmbal.crank_stars"):
+    for module in ("harmbal.orders.phasors",):
         try:
             order_phasors = importlib.import_module(module).order_phasors
         except (ImportError, AttributeError):

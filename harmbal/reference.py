@@ -348,7 +348,7 @@ def _rotor(ratio: int, y: float, z: float, unbalances: list, couple: complex, se
     the axis is parallel to the force, so the moment is (x, y, z) × F. A couple unbalance: at
     constant spin Ω about x the angular momentum H = I·Ω turns, dH/dt = Ω × H, and the block gets
     −Ω × (I·Ω) = Ω²·(0, −J_xz, J_xy), J = ∫x·(y, z) dm; ∫x·(z + i·t) dm = −i·sense·couple at
-    φ = 0 (``couple`` as :class:`harmbal.balancers.Shaft` stores it) and turns with the rotor as
+    φ = 0 (``couple`` as :class:`harmbal.model.balancers.Shaft` stores it) and turns with the rotor as
     e^{iφ}. The loads are pure first harmonics of φ, so four rotor angles give their phasor
     P = ½·Σ L(φ_j)·e^{−iφ_j} exactly; as order |ratio| of θ that is P, or conj(P) for ratio < 0.
     """

@@ -6,7 +6,7 @@ import pytest
 import harmbal as hb
 from harmbal.model import kinematics
 from harmbal.model import loads
-from harmbal.model import evaluate as timedomain
+from harmbal.model import evaluate as core
 
 EFFECTS = ["reciprocating", "rotating", "rod_inertia", "mass_torque"]
 
@@ -34,7 +34,7 @@ def test_disabled_effect_is_never_evaluated(monkeypatch, base_scene, effect, mod
 
 def test_rotating_only_needs_no_slider_crank(monkeypatch, base_scene):
     base_scene["model"] = {"effects": ["rotating"]}
-    _forbid(monkeypatch, timedomain, "slider_crank")
+    _forbid(monkeypatch, core, "slider_crank")
     _forbid(monkeypatch, kinematics, "slider_crank")
     ds = hb.simulate(hb.load_scene(base_scene))
     assert np.abs(ds.force).max() > 0

@@ -6,7 +6,7 @@ pure order-|n| phasors, linear in (Re P, Im P). So, per order, cancelling the
 engine's free force and moment phasors is a small real linear problem
 A·z = −b: the columns of A are the unit responses of the unknowns (computed
 by the same code that simulates the elements, :mod:`harmbal.balancers`), b
-the engine's phasors from :func:`harmbal.crank_stars.order_phasors`. It is
+the engine's phasors from :func:`harmbal.orders.phasors.order_phasors`. It is
 solved by least squares in order of priority, the force first, then the
 moment, then the roll moment: each exact where it can be, least squares where
 it cannot, without giving up what the one before achieved; among the designs
@@ -178,9 +178,9 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         part of the engine being balanced.
     request : DesignRequest or LeverDesignRequest, optional
         What to design; default the scene's ``[design]`` table. A
-        :class:`~harmbal.design_spec.LeverDesignRequest` is passed on to
-        :func:`harmbal.lever_design.design_lever`, which returns a
-        :class:`~harmbal.lever_design.LeverDesign`.
+        :class:`~harmbal.scene.requests.LeverDesignRequest` is passed on to
+        :func:`harmbal.balance.lever.design_lever`, which returns a
+        :class:`~harmbal.balance.lever.LeverDesign`.
     name, description : str, optional
         ``engine.name`` and ``engine.description`` of the output scene;
         default the input's.

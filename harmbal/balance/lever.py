@@ -3,7 +3,7 @@
 The shaking force on the block is −Σ m·a_G over all bodies, and the
 kinematics do not depend on the masses, so the coupler (the balance weight)
 enters it only through p = (m, m·x_G, m·y_G) (see
-:func:`harmbal.linkage.weight_basis`):
+:func:`harmbal.model.linkage.weight_basis`):
 
     F(θ; p) = F_rest(θ) − [B''(θ), E(θ), i·E(θ)]·p,
 

@@ -11,7 +11,7 @@ d(kinetic energy)/dθ of the bodies involved, from which the reaction of the
 torque that keeps the crank at constant speed follows (``mass_torque``).
 
 Which functions run is decided by the scene's effects in
-:mod:`harmbal.timedomain`; an effect that is not asked for is never computed.
+:mod:`harmbal.model.evaluate`; an effect that is not asked for is never computed.
 """
 
 from __future__ import annotations

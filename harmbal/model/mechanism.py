@@ -188,7 +188,7 @@ def joints(scene: Scene, *, samples_per_rev: int | None = None):
         From :func:`harmbal.load_scene`.
     samples_per_rev : int, optional
         Default: the scene's sampling, at least
-        :data:`harmbal.design_spec.PEAK_SAMPLES` so that peaks are accurate.
+        :data:`harmbal.scene.requests.PEAK_SAMPLES` so that peaks are accurate.
 
     Returns
     -------

@@ -30,7 +30,7 @@ def choose_samples(scene: Scene) -> int:
 
     The slider-crank harmonics decay geometrically, |C_n| ≲ n²ρⁿ relative to
     the first order for accelerations (ρ from
-    :func:`harmbal.kinematics.decay_rate`); order k ≤ K is contaminated by
+    :func:`harmbal.model.kinematics.decay_rate`); order k ≤ K is contaminated by
     orders ≥ N − K. The count is also at least 4K so that the spectral-tail
     estimate in :func:`harmbal.order_spectrum` covers the orders of interest,
     and above |n| + K for a balancer element turning at n× (a single harmonic

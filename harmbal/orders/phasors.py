@@ -77,7 +77,7 @@ class OrderPhasors:
 def _unbalance_phasors(angle: float, u, sense: int) -> tuple[np.ndarray, np.ndarray]:
     """First-order force and moment (about the origin) phasors per axis of a
     static unbalance ``u`` turning with the crank on its axis, pointing at
-    ``angle``: a shaft at ratio 1 (:func:`harmbal.balancers.shaft_amplitudes`)."""
+    ``angle``: a shaft at ratio 1 (:func:`harmbal.model.balancers.shaft_amplitudes`)."""
     return shaft_amplitudes(Shaft("", 1, 0.0, 0.0, (ShaftUnbalance(u.unbalance, angle, u.x),)), sense)
 
 

@@ -322,7 +322,7 @@ def phasor_chain(stars: xr.Dataset, order: int, quantity: str = "force",
     """
     k = _check_order(stars, order)
     if "speed" in stars.dims:
-        raise ValueError("select one speed first (harmbal.plots.select_speed)")
+        raise ValueError("select one speed first (harmbal.reporting.plots.select_speed)")
     per_cylinder = np.asarray(stars[f"{quantity}_cylinder"].sel(order=k, rotation=rotation).values, dtype=complex)
     resultant = complex(stars[f"{quantity}_rotating"].sel(order=k, rotation=rotation))
     labels = [str(c) for c in stars["cylinder"].values]
@@ -879,7 +879,7 @@ def lever_figure(joints: xr.Dataset, *, speed: int = 0) -> Figure:
         [deg], one ``Line2D`` per joint labelled with its name (gid
         ``joint-<i>``). Right, the transmission angle γ [deg] of each lever
         (gid ``transmission-<i>``), the warning level
-        :data:`harmbal.linkage.TRANSMISSION_WARNING` as a horizontal line
+        :data:`harmbal.model.linkage.TRANSMISSION_WARNING` as a horizontal line
         (gid ``transmission-warning``) and
         the dataset's minimum as a marker (gid ``min-transmission-<i>``, at
         (θ, γ) in degrees); the note "no lever balancer" if there is none.

@@ -278,7 +278,7 @@ def lever_orders_table(with_lever, without_lever, max_order: int = 4) -> str:
 def lever_design_table(result) -> str:
     """The optimal balance weight against the start, the criterion per signal
     and the force per order, and the exact model's check, from
-    :func:`harmbal.lever_design.design_lever`."""
+    :func:`harmbal.balance.lever.design_lever`."""
     request, b = result.request, result.breakdown
     units = [str(u) for u in b["signal_units"].values]
     squared = request.objective == "orders"

@@ -8,9 +8,8 @@ from ._version import __version__
 from .labelled import CONVENTIONS, Speeds, dataset, tree
 from .model.evaluate import evaluate
 from .orders.phasors import order_phasors
-from .orders.spectrum import phasors
 from .scene import Scene
-from .views.orders import orders_dataset
+from .views.orders import orders_dataset, unit_orders
 from .views.stars import stars_dataset
 from .views.time import body_aliasing, body_moments, time_dataset
 
@@ -75,16 +74,12 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     moment_cylinder, moment_crankshaft = body_moments(unit)
     aliasing = body_aliasing(unit, moment_cylinder, moment_crankshaft, backend)
     time = time_dataset(scene, unit, per_cylinder=per_cylinder, aliasing=aliasing)
-    force, moment = unit.total()
-    spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order), unit speed
+    values, attrs = unit_orders(scene, unit, aliasing, backend)
     speeds = Speeds(scene.speeds)
-    kmax = scene.sampling.max_order
-    orders = orders_dataset(spectrum[0], spectrum[1], {"force": aliasing[0], "moment": aliasing[1]},
-                            {"force": unit.force_scale, "moment": unit.moment_scale}, time.attrs, speeds,
-                            speeds.coords(), max_order=kmax, backend=backend)
+    orders = orders_dataset(values, attrs, speeds, speeds.coords())
     groups = {"scene": scene_dataset(scene), "time": time, "orders": orders,
               "stars": stars_dataset(scene, order_phasors(scene, unit=unit, backend=backend),
-                                            totals=(spectrum[0, :, :kmax + 1], spectrum[1, :, :kmax + 1]))}
+                                            totals=(values["force"].T, values["moment"].T))}
     if scene.levers:
         from .model.mechanism import joints
 

@@ -2,11 +2,16 @@
 
 import subprocess
 import sys
+import warnings
+from pathlib import Path
 
 import pytest
 import tomli_w
 
+import harmbal as hb
 from harmbal.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def write_scene(path, mapping):
@@ -167,3 +172,21 @@ def test_stars_verify_failure_exits_1(tmp_path, base_scene, capsys, monkeypatch)
     assert main(["stars", str(write_scene(tmp_path / "s.toml", base_scene)), "--verify"]) == 1
     captured = capsys.readouterr()
     assert "FAILED" in captured.out and "disagree" in captured.err
+
+
+@pytest.mark.parametrize("stem", ["tractor-3cyl", "v8-cross-plane", "inline-4", "w24-broad-arrow"])
+def test_run_prints_the_order_table_of_the_analysis_without_importing_xarray(stem):
+    """Oracle: the order table of hb.analyse's /orders Dataset. harmbal run
+    prints it from the arrays of the same evaluation when nothing else is
+    asked for, in a process that never imports xarray, pandas or pint."""
+    from harmbal.reporting.tables import order_table
+
+    path = ROOT / "datasets" / "engines" / f"{stem}.toml"
+    code = ("import sys; from harmbal.cli import main; code = main(['run', sys.argv[1]]); "
+            "print(sorted({'xarray', 'pandas', 'pint'} & set(sys.modules)), file=sys.stderr); sys.exit(code)")
+    done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True)
+    assert done.stderr.strip().splitlines()[-1] == "[]"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        want = order_table(hb.analyse(hb.load_scene(path))["orders"].ds)
+    assert done.stdout.rstrip("\n") == want

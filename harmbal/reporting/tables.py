@@ -14,13 +14,7 @@ def _at_speeds(ds, lines: list[str]):
     """The Dataset at each speed to print, with its rpm; notes in ``lines``
     the speeds a long sweep leaves out (all but the lowest and the highest)."""
     rpm = np.atleast_1d(ds["rpm"].values)
-    indices = range(rpm.size)
-    if rpm.size > PRINTED_SPEEDS:
-        indices = [int(np.argmin(rpm)), int(np.argmax(rpm))]
-        lines += ["", f"{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the tables show the lowest "
-                  "and the highest (inertial loads scale with ω²); every speed is in the Datasets and in the "
-                  "archive (-o)."]
-    for i in indices:
+    for i in _printed_speeds(rpm, lines):
         yield (ds.isel(speed=i) if "speed" in ds.dims else ds), rpm[i]
 
 
@@ -43,13 +37,29 @@ def _cell(phasor: complex, scale: float, rtol: float) -> str:
 
 
 def order_table(orders) -> str:
-    """Free force and free moment per order, one block per speed.
+    """Free force and free moment per order, one block per speed, of an
+    order Dataset (:func:`harmbal.order_spectrum`, ``/orders``).
 
     Each cell is the peak amplitude and the phase (degrees, of
     Re(C·e^{ikθ}) at θ = 0); components at or below the balanced tolerance
     print as 0 without a phase.
     """
-    attrs = orders.attrs
+    def at_speed(i):
+        sel = orders.isel(speed=i) if "speed" in orders.dims else orders
+        return {name: sel[name].values for name in ORDER_VALUES}
+
+    return order_table_of_arrays(orders.attrs, orders["speed"].values, at_speed)
+
+
+#: What :func:`order_table_of_arrays` reads of each speed.
+ORDER_VALUES = tuple(f"{p}{name}{q}" for name in ("force", "moment")
+                     for p, q in (("", ""), ("", "_rotating"), ("", "_scale"), ("aliasing_error_", "")))
+
+
+def order_table_of_arrays(attrs: dict, speeds, at_speed) -> str:
+    """:func:`order_table` from plain arrays: the order view's attributes,
+    the speeds [rad/s] and ``at_speed(i)``, the :data:`ORDER_VALUES` at speed
+    ``i`` (arrays as in the order Dataset, without the speed dimension)."""
     rtol = float(attrs.get("balanced_rtol", 1e-10))
     ref = np.asarray(attrs.get("reference_point", [0.0, 0.0, 0.0]), dtype=float) * 1e3
     lines = [
@@ -58,23 +68,37 @@ def order_table(orders) -> str:
         f"Moments about ({ref[0]:g}, {ref[1]:g}, {ref[2]:g}) mm; amplitude (peak) and phase at θ = 0; "
         f"co/counter: rotating phasors of the transverse (y, z) vector.",
     ]
-    for sel, rpm in _at_speeds(orders, lines):
+    speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
+    rpm = speeds * 30 / np.pi
+    for i in _printed_speeds(rpm, lines):
+        sel = at_speed(i)
         lines.append("")
-        lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
+        lines.append(f"Speed {rpm[i]:.6g} rpm ({speeds[i]:.6g} rad/s)")
         for name, units, label in (("force", "N", "Free force"), ("moment", "N m", "Free moment")):
             scale = float(sel[f"{name}_scale"])
             axes = "".join(f"{a + ' [' + units + ']':>19}" for a in ("x", "y", "z"))
             lines.append(f"{label}  {'order':>5}{axes}{'co [' + units + ']':>19}{'counter [' + units + ']':>19}")
-            values = sel[name].values
-            rotating = sel[f"{name}_rotating"].values
-            for k in sel["order"].values:
+            values = sel[name]
+            rotating = sel[f"{name}_rotating"]
+            for k in range(len(values)):
                 row = list(values[k]) + list(rotating[k])
                 if k == 0 and all(is_balanced(abs(v), scale, rtol) for v in row):
                     continue
                 lines.append(f"{'':{len(label) + 2}}{k:>5}" + "".join(_cell(v, scale, rtol) for v in row))
-            tail = float(np.max(sel[f"aliasing_error_{name}"].values))
+            tail = float(np.max(sel[f"aliasing_error_{name}"]))
             lines.append(f"{'':{len(label) + 2}}aliasing estimate {tail:.2g} {units}")
     return "\n".join(lines)
+
+
+def _printed_speeds(rpm: np.ndarray, lines: list[str]):
+    """Indices of the speeds to print; notes in ``lines`` the speeds a long
+    sweep leaves out (all but the lowest and the highest)."""
+    if rpm.size <= PRINTED_SPEEDS:
+        return range(rpm.size)
+    lines += ["", f"{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the tables show the lowest "
+              "and the highest (inertial loads scale with ω²); every speed is in the Datasets and in the "
+              "archive (-o)."]
+    return [int(np.argmin(rpm)), int(np.argmax(rpm))]
 
 
 def _arms(angles: np.ndarray) -> str:

@@ -6,7 +6,10 @@ import numpy as np
 
 from ..labelled import SPEED_SCALING, Speeds, dataset, unit_speed_values
 from ..model.sampling import AccuracyWarning
+from ..model.evaluate import UnitLoads
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, aliasing_estimate, phasors, rotating_split
+from ..scene import Scene
+from .time import attributes
 
 
 def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", workers: int | None = None):
@@ -72,46 +75,35 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
         scales[name] = unit_speed_values(scale.variable) if swept else scale.values
     coords = {name: ds[name].variable for name in ("speed", "rpm") if name in ds.coords}
     attrs.pop(SPEED_SCALING, None)
-    return orders_dataset(spectra["force"], spectra["moment"], tails, scales, attrs, speeds, coords,
-                          lead=() if swept else lead, max_order=kmax, backend=backend)
+    values, attrs = order_arrays(spectra["force"], spectra["moment"], tails, scales, attrs, max_order=kmax,
+                                 backend=backend)
+    return orders_dataset(values, attrs, speeds, coords, lead=() if swept else lead)
 
 
-def orders_dataset(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dict, attrs: dict, speeds: Speeds,
-                   coords: dict, *, lead: tuple = (), max_order: int, backend: str = "scipy"):
-    """The order Dataset from the spectra (..., axis, order ≥ max_order) of
-    the total force and moment, their aliasing estimates (..., axis) and load
-    scales; values over ``lead`` dims as given, times ``speeds``' ω²."""
+def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dict, attrs: dict, *, max_order: int,
+                 backend: str = "scipy") -> tuple[dict, dict]:
+    """The order view on plain arrays, from the spectra (..., axis, order ≥
+    max_order) of the total force and moment, their aliasing estimates
+    (..., axis) and load scales (...): ``force``, ``moment`` (..., order,
+    axis), ``force_rotating``, ``moment_rotating`` (..., order, rotation),
+    ``aliasing_error_*``, ``*_scale``, and the Dataset's attributes.
+
+    Warns
+    -----
+    AccuracyWarning
+        See :func:`order_spectrum`.
+    """
     samples = int(attrs.get("samples_per_rev", 0)) or 2 * (force.shape[-1] - 1)
     kmax = max_order
     sense = 1 if attrs.get("rotation") == "counterclockwise" else -1
-    var = speeds.variable
-    data = {}
-    for name, spectrum, units in (("force", force, "N"), ("moment", moment, "N m")):
+    values = {}
+    for name, spectrum in (("force", force), ("moment", moment)):
         kept = spectrum[..., : kmax + 1]
         co, counter = rotating_split(kept[..., 2, :], -sense * kept[..., 1, :])
-        data[name] = var(lead + ("order", "axis"), np.swapaxes(kept, -1, -2), {
-            "units": units,
-            "long_name": f"order phasor of the shaking {name}",
-            "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude",
-        })
-        data[f"{name}_rotating"] = var(lead + ("order", "rotation"), np.stack([co, counter], axis=-1), {
-            "units": units,
-            "long_name": f"co- and counter-rotating phasors of the transverse {name}",
-            "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta); "
-                           "t points 90 deg ahead of +z in the direction of rotation",
-        })
-        data[f"aliasing_error_{name}"] = var(lead + ("axis",), tails[name], {
-            "units": units,
-            "long_name": f"estimated aliasing error of the {name} phasors (extrapolated spectral tail)",
-        })
-        data[f"{name}_scale"] = var(lead, scales[name], {
-            "units": units, "long_name": f"sum of single-body peak {name}s"})
-    coords = dict(coords)
-    coords.update({
-        "order": ("order", np.arange(kmax + 1), {"long_name": "order of crank speed", "units": "1"}),
-        "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
-        "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
-    })
+        values[name] = np.swapaxes(kept, -1, -2)
+        values[f"{name}_rotating"] = np.stack([co, counter], axis=-1)
+        values[f"aliasing_error_{name}"] = tails[name]
+        values[f"{name}_scale"] = scales[name]
     # Relative errors do not depend on the speed: the unit-speed arrays (or each speed's) judge them.
     reached = 0.0
     for name in ("force", "moment"):
@@ -128,6 +120,48 @@ def orders_dataset(force: np.ndarray, moment: np.ndarray, tails: dict, scales: d
         "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
         "fft_backend": backend,
         "balanced_rtol": BALANCED_RTOL,
+    })
+    return values, attrs
+
+
+def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "scipy") -> tuple[dict, dict]:
+    """:func:`order_arrays` of one evaluation at unit speed (``aliasing`` from
+    :func:`harmbal.views.time.body_aliasing`)."""
+    force, moment = unit.total()
+    spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order)
+    return order_arrays(spectrum[0], spectrum[1], {"force": aliasing[0], "moment": aliasing[1]},
+                        {"force": unit.force_scale, "moment": unit.moment_scale},
+                        attributes(scene, unit.samples_per_rev), max_order=scene.sampling.max_order, backend=backend)
+
+
+def orders_dataset(values: dict, attrs: dict, speeds: Speeds, coords: dict, *, lead: tuple = ()):
+    """The order Dataset of :func:`order_arrays`' values over ``lead`` dims as
+    given, times ``speeds``' ω²."""
+    var = speeds.variable
+    data = {}
+    for name, units in (("force", "N"), ("moment", "N m")):
+        data[name] = var(lead + ("order", "axis"), values[name], {
+            "units": units,
+            "long_name": f"order phasor of the shaking {name}",
+            "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude",
+        })
+        data[f"{name}_rotating"] = var(lead + ("order", "rotation"), values[f"{name}_rotating"], {
+            "units": units,
+            "long_name": f"co- and counter-rotating phasors of the transverse {name}",
+            "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta); "
+                           "t points 90 deg ahead of +z in the direction of rotation",
+        })
+        data[f"aliasing_error_{name}"] = var(lead + ("axis",), values[f"aliasing_error_{name}"], {
+            "units": units,
+            "long_name": f"estimated aliasing error of the {name} phasors (extrapolated spectral tail)",
+        })
+        data[f"{name}_scale"] = var(lead, values[f"{name}_scale"], {
+            "units": units, "long_name": f"sum of single-body peak {name}s"})
+    coords = dict(coords)
+    coords.update({
+        "order": ("order", np.arange(values["force"].shape[-2]), {"long_name": "order of crank speed", "units": "1"}),
+        "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
+        "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
     })
     return dataset(data, coords, attrs)
 

@@ -71,9 +71,9 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         (:func:`harmbal.verify`).
     """
     unit = evaluate(scene)
-    moment_cylinder, moment_crankshaft = body_moments(unit)
-    aliasing = body_aliasing(unit, moment_cylinder, moment_crankshaft, backend)
-    time = time_dataset(scene, unit, per_cylinder=per_cylinder, aliasing=aliasing)
+    moments = body_moments(unit)
+    aliasing = body_aliasing(unit, backend, moments)
+    time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing)
     values, attrs = unit_orders(scene, unit, aliasing, backend)
     speeds = Speeds(scene.speeds)
     orders = orders_dataset(values, attrs, speeds, speeds.coords())

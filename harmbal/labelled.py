@@ -111,6 +111,11 @@ class Speeds:
             "rpm": xr.Variable(self.lead, self.values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
         }
 
+    def scaled(self, unit):
+        """Values ``unit`` [at ω = 1 rad/s] times ω², multiplied out, with a
+        leading speed axis if several (for small arrays)."""
+        return np.multiply.outer(self.w2, unit) if self.several else self.w2 * np.asarray(unit)
+
     def variable(self, dims: tuple, unit, attrs: dict):
         """A variable of values ``unit`` [at ω = 1 rad/s] times ω²."""
         import xarray as xr
@@ -119,13 +124,6 @@ class Speeds:
         if not self.several:
             return xr.Variable(dims, self.w2 * np.asarray(unit), attrs)
         return xr.Variable(self.lead + dims, indexing.LazilyIndexedArray(speed_scaled(self.w2, unit)), attrs)
-
-
-def speed_axis(speeds):
-    """``(lead, w2, coords)`` of :class:`Speeds` for callers that scale
-    small arrays themselves (coords as Variables)."""
-    s = Speeds(speeds)
-    return s.lead, s.w2, s.coords()
 
 
 def dataset(data: dict, coords: dict, attrs: dict):
@@ -160,7 +158,7 @@ def _dataset_direct(data: dict, coords: dict, attrs: dict):
         variables[name] = var
     for name, var in coords.items():
         if var.dims == (name,):
-            index = _index(name, var.dtype.str, var.shape, var.values.tobytes(), var)
+            index = _index(name, var)
             indexes[name] = index
             variables.update(index.create_variables({name: var}))
     names = list(coords) + [n for n in data if n not in coords]
@@ -168,13 +166,13 @@ def _dataset_direct(data: dict, coords: dict, attrs: dict):
                                         indexes=indexes)
 
 
-def _index(name: str, dtype: str, shape: tuple, data: bytes, variable):
+def _index(name: str, variable):
     """The pandas index of a dimension coordinate; indexes are immutable, so
     one serves every Dataset with the same coordinate values (axis, order,
     rotation, angle …), and building it is the dearest part of a Dataset."""
-    if len(data) > 1 << 16:  # a long sweep's speeds: not worth keeping
+    if variable.size > 1 << 13:  # a long sweep's speeds: not worth keeping
         return _pandas_index(name, variable)
-    key = (name, dtype, shape, data)
+    key = (name, variable.dtype.str, variable.shape, variable.values.tobytes())
     index = _INDEXES.get(key)
     if index is None:
         if len(_INDEXES) > 256:

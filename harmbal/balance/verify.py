@@ -23,7 +23,7 @@ from ..orders.spectrum import BALANCED_RTOL, phasors, rotating_split
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
 from ..views.stars import VERIFY_RTOL
-from ..views.time import body_aliasing, body_moments
+from ..views.time import body_aliasing
 
 
 class VerifyError(ValueError):
@@ -88,18 +88,13 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     # The co/counter split needs the orders from 0 (order 0 is a fixed vector); then keep the orders asked for.
     exact, unbalanced = (_components(spectrum, unit.sense)[:, orders] for spectrum in spectra)  # (component, order)
     spectra = spectra[..., orders]
-    alias_force, alias_moment = body_aliasing(unit, *body_moments(unit), backend)
+    alias_force, alias_moment = body_aliasing(unit, backend)
 
     names = [n for n, _ in COMPONENTS]
     is_force = np.array([g == "force" for _, g in COMPONENTS])
     targeted = np.array([g in request.cancel for _, g in COMPONENTS])
     speeds = Speeds(scene.speeds)
-    w2 = np.asarray(speeds.w2)
-    lead = speeds.lead
-
-    def at_speed(values):
-        """Unit-speed values times ω², with a leading speed axis if several."""
-        return np.multiply.outer(w2, values) if lead else w2 * values
+    w2, lead, at_speed = np.asarray(speeds.w2), speeds.lead, speeds.scaled
 
     predicted = np.zeros((len(orders), len(names)), dtype=complex)
     for k, name, value in request.predicted:

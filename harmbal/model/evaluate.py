@@ -188,8 +188,7 @@ def _phase_rows(delta: np.ndarray, kind: np.ndarray, samples: int):
     row = np.empty(len(kind), dtype=int)
     for i, (t, f) in enumerate(zip(kind, offset)):
         row[i] = keys.setdefault((int(t), float(f)), len(keys))
-    rows = sorted(keys.items(), key=lambda item: item[1])
-    return [key for key, _ in rows], row, whole.astype(int) % samples
+    return list(keys), row, whole.astype(int) % samples  # keys in the order of their row indices
 
 
 def cylinder_types(cylinders) -> tuple[list, np.ndarray]:

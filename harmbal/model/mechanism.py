@@ -42,7 +42,7 @@ from ..scene.elements import TRANSMISSION_WARNING, closure
 from .linkage import four_bar, to_engine
 from ..scene import Scene
 from .sampling import choose_samples
-from ..labelled import speed_axis
+from ..labelled import Speeds
 
 
 def _cross(p, q):
@@ -209,10 +209,8 @@ def joints(scene: Scene, *, samples_per_rev: int | None = None):
     theta = 2 * np.pi * np.arange(n) / n
     sense = scene.sense
     result = reactions(scene, theta)
-    lead, w2, coords = speed_axis(scene.speeds)
-
-    def scaled(values):
-        return np.multiply.outer(w2, values) if lead else w2 * values
+    speeds = Speeds(scene.speeds)
+    lead, scaled, coords = speeds.lead, speeds.scaled, speeds.coords()
 
     names = list(result.forces)
     stacked = np.stack([np.stack(to_engine(result.forces[j], sense)) for j in names])  # (joint, axis, angle)

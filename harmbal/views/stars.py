@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..labelled import AXES, Speeds, dataset, speed_axis
+from ..labelled import AXES, Speeds, dataset
 from ..orders.phasors import OrderPhasors, order_phasors
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, is_balanced, rotating_split
 from ..orders.stars import crank_stars
@@ -181,7 +181,8 @@ def verify_orders(scene: Scene, *, backend: str = "scipy"):
 
     p = order_phasors(scene, backend=backend)
     time = order_spectrum(simulate(scene, samples_per_rev=p.samples_per_rev), backend=backend)
-    lead, w2, coords = speed_axis(scene.speeds)
+    speeds = Speeds(scene.speeds)
+    lead, w2, coords = speeds.lead, speeds.w2, speeds.coords()
     coords.update({
         "order": time["order"], "axis": time["axis"],
     })
@@ -189,7 +190,7 @@ def verify_orders(scene: Scene, *, backend: str = "scipy"):
     passed = True
     for name, units, values, peak, alias in (("force", "N", p.force, p.peak_force, p.aliasing[0]),
                                             ("moment", "N m", p.moment, p.peak_moment, p.aliasing[1])):
-        order_domain = np.multiply.outer(w2, values.T) if lead else w2 * values.T
+        order_domain = speeds.scaled(values.T)
         time_domain = time[name].values
         difference = np.abs(order_domain - time_domain).max(axis=-1)
         tol = w2 * (VERIFY_RTOL * peak.max(initial=0.0) + alias) + time[f"aliasing_error_{name}"].values.max(axis=-1)
@@ -219,10 +220,10 @@ def with_free_vectors(stars_ds, orders_ds):
     the load scale set to exactly 0."""
     import xarray as xr
 
-    scales = {"force": orders_ds["force_scale"], "moment": orders_ds["moment_scale"]}
     rtol = float(orders_ds.attrs.get("balanced_rtol", BALANCED_RTOL))
     out = {}
     for name in FREE_VECTORS:
         value = orders_ds[name]
-        out[name] = xr.where(np.abs(value) <= rtol * scales[name.split("_")[0]], 0, value, keep_attrs=True)
+        scale = orders_ds[f"{name.split('_')[0]}_scale"]  # a DataArray: aligned by label, not by position
+        out[name] = xr.where(np.abs(value) <= rtol * scale, 0, value, keep_attrs=True)
     return stars_ds.assign(out)

@@ -51,8 +51,7 @@ def body_moments(unit: UnitLoads) -> tuple[np.ndarray, np.ndarray]:
             moment_about(unit.reference_point, force, moment))
 
 
-def body_aliasing(unit: UnitLoads, moment_cylinder: np.ndarray, moment_crankshaft: np.ndarray,
-                  backend: str = "scipy") -> tuple[np.ndarray, np.ndarray]:
+def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Aliasing estimates per axis (force, moment) of the orders ≤
     ``max_order``, summed over the cylinders and the crankshaft without
     cancellation, at unit speed.
@@ -63,8 +62,10 @@ def body_aliasing(unit: UnitLoads, moment_cylinder: np.ndarray, moment_crankshaf
     orders kept. Each body's own spectrum decays smoothly, so the sum of their
     tail estimates (:func:`harmbal.orders.spectrum.aliasing_estimate`) bounds
     the total's aliasing whatever cancels; each fit decays no faster than the
-    body's geometry allows (``unit.decay_rates``).
+    body's geometry allows (``unit.decay_rates``). ``moments``:
+    :func:`body_moments` if already computed.
     """
+    moment_cylinder, moment_crankshaft = moments if moments is not None else body_moments(unit)
     n = unit.samples_per_rev
     crank_force, _ = unit.crankshaft()
     # One batched FFT of every body's force and moment: (body, force/moment × axis, angle).
@@ -75,14 +76,15 @@ def body_aliasing(unit: UnitLoads, moment_cylinder: np.ndarray, moment_crankshaf
     return tail[:3], tail[3:]
 
 
-def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, aliasing=None):
+def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None):
     """The time-domain Dataset of one evaluation (see :func:`simulate`);
-    ``aliasing`` = :func:`body_aliasing` if already computed."""
-    moment_cyl, moment_crank = body_moments(unit)
+    ``moments`` = :func:`body_moments` and ``aliasing`` = :func:`body_aliasing`
+    if already computed."""
+    moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
     crank_force, _ = unit.crankshaft()
     force = unit.force_cylinder.sum(axis=0) + crank_force
     moment = moment_cyl.sum(axis=0) + moment_crank
-    alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moment_cyl, moment_crank)
+    alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moments=(moment_cyl, moment_crank))
     speeds = Speeds(scene.speeds)
     var = speeds.variable
     coords = speeds.coords()

@@ -26,8 +26,10 @@ from .linkage import lever_loads
 from .sampling import body_decay_rates, choose_samples
 from ..scene import Model, Scene
 
-#: A cylinder's phase within this many grid steps of a grid point is on the grid (a roll of its type's samples).
-ON_GRID = 1e-9
+#: A cylinder's phase within this many rounding units (relative, of its phase in grid steps) of a grid
+#: point is on the grid (a roll of its type's samples). Only round-off may be rolled away: a phase off
+#: the grid by 1e-10 rad, rolled, put an error of 1e-10 of the load on every phasor.
+ON_GRID = 16 * np.finfo(float).eps
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,7 +183,7 @@ def _phase_rows(delta: np.ndarray, kind: np.ndarray, samples: int):
     """
     steps = np.asarray(delta, dtype=float) * samples / (2 * np.pi)
     nearest = np.round(steps)
-    on = np.abs(steps - nearest) <= ON_GRID
+    on = np.abs(steps - nearest) <= ON_GRID * np.maximum(np.abs(steps), 1.0)
     whole = np.where(on, nearest, np.floor(steps))
     offset = np.where(on, 0.0, np.asarray(delta) - 2 * np.pi * whole / samples)
     keys: dict[tuple[int, float], int] = {(int(t), 0.0): int(t) for t in np.unique(kind)}
@@ -229,7 +231,8 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
     -------
     UnitLoads
     """
-    n = samples_per_rev or choose_samples(scene)
+    decay_rates = body_decay_rates(scene)
+    n = samples_per_rev or choose_samples(scene, decay_rates)
     sense, effects = scene.sense, scene.model.effects
     theta = 2 * np.pi * np.arange(n) / n
     cyls = scene.cylinders
@@ -319,7 +322,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
         peak_force=peak_force, peak_moment=peak_roll + arm * peak_force,
         crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
         crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
-        lever_arm=arm, decay_rates=body_decay_rates(scene),
+        lever_arm=arm, decay_rates=decay_rates,
     )
 
 

@@ -104,11 +104,9 @@ class Speeds:
 
     def coords(self) -> dict:
         """The ``speed`` [rad/s] and ``rpm`` coordinates."""
-        import xarray as xr
-
         return {
-            "speed": xr.Variable(self.lead, self.values, {"units": "rad/s", "long_name": "crank speed ω"}),
-            "rpm": xr.Variable(self.lead, self.values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
+            "speed": variable(self.lead, self.values, {"units": "rad/s", "long_name": "crank speed ω"}),
+            "rpm": variable(self.lead, self.values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
         }
 
     def scaled(self, unit):
@@ -122,7 +120,7 @@ class Speeds:
         from xarray.core import indexing
 
         if not self.several:
-            return xr.Variable(dims, self.w2 * np.asarray(unit), attrs)
+            return variable(dims, self.w2 * np.asarray(unit), attrs)
         return xr.Variable(self.lead + dims, indexing.LazilyIndexedArray(speed_scaled(self.w2, unit)), attrs)
 
 
@@ -144,7 +142,47 @@ def dataset(data: dict, coords: dict, attrs: dict):
 def _as_variable(value):
     import xarray as xr
 
-    return value if isinstance(value, xr.Variable) else xr.Variable(*value)
+    return value if isinstance(value, xr.Variable) else variable(*value)
+
+
+def variable(dims, values, attrs: dict | None = None):
+    """``xarray.Variable(dims, values, attrs)``, built directly for plain
+    numeric, boolean and string arrays (the constructor's checks and
+    conversions cost fifteen times the assignment; they change nothing for
+    these), through the constructor for anything else."""
+    import xarray as xr
+
+    dims = (dims,) if isinstance(dims, str) else tuple(dims)
+    if type(values) is not np.ndarray:
+        if not isinstance(values, (list, tuple, float, int, bool, complex, np.generic)):
+            return xr.Variable(dims, values, attrs)
+        values = np.asarray(values)
+    if values.dtype.kind not in _PLAIN_KINDS or values.ndim != len(dims) or not _direct_variables():
+        return xr.Variable(dims, values, attrs)
+    var = object.__new__(xr.Variable)
+    var._dims, var._data, var._attrs, var._encoding = dims, values, dict(attrs) if attrs else None, None
+    return var
+
+
+#: dtype kinds that ``xarray.Variable`` stores as the numpy array it is given.
+_PLAIN_KINDS = frozenset("biufcUS")
+
+
+@functools.cache
+def _direct_variables() -> bool:
+    """Whether this xarray's Variable is what :func:`variable` assumes (its
+    four slots, and a plain array stored as given); checked once per process."""
+    import xarray as xr
+
+    values = np.arange(3.0)
+    try:
+        reference = xr.Variable(("a",), values, {"u": 1})
+        direct = object.__new__(xr.Variable)
+        direct._dims, direct._data, direct._attrs, direct._encoding = ("a",), values, {"u": 1}, None
+        return (set(xr.Variable.__slots__) == {"_dims", "_data", "_attrs", "_encoding"}
+                and reference._data is values and direct.identical(reference))
+    except (AttributeError, TypeError):  # pragma: no cover - an xarray that changed
+        return False
 
 
 def _dataset_direct(data: dict, coords: dict, attrs: dict):
@@ -158,27 +196,34 @@ def _dataset_direct(data: dict, coords: dict, attrs: dict):
         variables[name] = var
     for name, var in coords.items():
         if var.dims == (name,):
-            index = _index(name, var)
-            indexes[name] = index
-            variables.update(index.create_variables({name: var}))
+            indexes[name], variables[name] = _indexed(name, var)
     names = list(coords) + [n for n in data if n not in coords]
     return xr.Dataset._construct_direct({n: variables[n] for n in names}, set(coords), dims, attrs=dict(attrs),
                                         indexes=indexes)
 
 
-def _index(name: str, variable):
-    """The pandas index of a dimension coordinate; indexes are immutable, so
-    one serves every Dataset with the same coordinate values (axis, order,
-    rotation, angle …), and building it is the dearest part of a Dataset."""
+def _indexed(name: str, variable):
+    """The pandas index of a dimension coordinate and the coordinate as the
+    IndexVariable that wraps it. Indexes are immutable, so one serves every
+    Dataset with the same coordinate values (axis, order, rotation, angle …);
+    building it is the dearest part of a Dataset."""
     if variable.size > 1 << 13:  # a long sweep's speeds: not worth keeping
-        return _pandas_index(name, variable)
+        index = _pandas_index(name, variable)
+        return index, index.create_variables({name: variable})[name]
     key = (name, variable.dtype.str, variable.shape, variable.values.tobytes())
-    index = _INDEXES.get(key)
-    if index is None:
+    cached = _INDEXES.get(key)
+    if cached is None:
         if len(_INDEXES) > 256:
             _INDEXES.clear()
-        index = _INDEXES[key] = _pandas_index(name, variable)
-    return index
+        index = _pandas_index(name, variable)
+        cached = _INDEXES[key] = (index, index.create_variables({name: variable})[name])
+    index, template = cached
+    # The template's data (an indexing adapter of the immutable pandas index) is shared; attributes are not.
+    coordinate = object.__new__(type(template))
+    coordinate._dims, coordinate._data = template._dims, template._data
+    coordinate._attrs = dict(variable._attrs) if variable._attrs else None
+    coordinate._encoding = dict(variable._encoding) if variable._encoding else None
+    return index, coordinate
 
 
 def _pandas_index(name: str, variable):
@@ -207,7 +252,7 @@ def tree(root_attrs: dict, groups: dict):
 def _tree_direct(root_attrs: dict, groups: dict):
     import xarray as xr
 
-    root = xr.DataTree(xr.Dataset(attrs=root_attrs))
+    root = xr.DataTree(dataset({}, {}, root_attrs))
     for name, ds in groups.items():
         node = xr.DataTree.__new__(xr.DataTree)
         node._set_node_data(ds)

@@ -24,7 +24,7 @@ class AccuracyWarning(UserWarning):
     """The requested accuracy needs more samples than harmbal will choose."""
 
 
-def choose_samples(scene: Scene) -> int:
+def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
     """Samples per revolution: the scene's fixed count, or the smallest count
     whose aliasing error meets the scene's target accuracy.
 
@@ -34,13 +34,14 @@ def choose_samples(scene: Scene) -> int:
     orders ≥ N − K. The count is also at least 4K so that the spectral-tail
     estimate in :func:`harmbal.order_spectrum` covers the orders of interest,
     and above |n| + K for a balancer element turning at n× (a single harmonic
-    that would otherwise alias onto an order kept).
+    that would otherwise alias onto an order kept). ``decay_rates``:
+    :func:`body_decay_rates` if already computed.
     """
     sampling = scene.sampling
     if sampling.samples_per_rev is not None:
         return sampling.samples_per_rev
     k = sampling.max_order
-    rho = float(body_decay_rates(scene).max())
+    rho = float((body_decay_rates(scene) if decay_rates is None else decay_rates).max())
     n = 4 * k
     if "balancers" in scene.model.effects:
         # A shaft at n× is one harmonic: it must not alias onto the orders kept (N − |n| > K).

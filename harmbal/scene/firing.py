@@ -17,6 +17,7 @@ bank β.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
@@ -145,9 +146,19 @@ def firing(throw, bank, crank_radius, rod_length, offset, cycle: int, order: tup
 
 
 def cylinder_firing(cylinders, cycle: int, order: tuple[int, ...] | None = None) -> Firing:
-    """:func:`firing` of a sequence of :class:`harmbal.scene.Cylinder`."""
-    return firing([c.throw for c in cylinders], [c.bank for c in cylinders], [c.crank_radius for c in cylinders],
-                  [c.rod_length for c in cylinders], [c.offset for c in cylinders], cycle, order)
+    """:func:`firing` of a sequence of :class:`harmbal.scene.Cylinder`
+    (remembered for the last few engines: its arrays are read-only)."""
+    return _cached_firing(tuple(c.throw for c in cylinders), tuple(c.bank for c in cylinders),
+                          tuple(c.crank_radius for c in cylinders), tuple(c.rod_length for c in cylinders),
+                          tuple(c.offset for c in cylinders), cycle, None if order is None else tuple(order))
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_firing(*args) -> Firing:
+    result = firing(*args)
+    for array in (result.angle, result.interval):
+        array.flags.writeable = False
+    return result
 
 
 def _sorted(angles: np.ndarray) -> tuple[int, ...]:

@@ -133,7 +133,10 @@ def test_netcdf4_library_reads_it(archive, tree, scene_file):
         force = nc["time"].variables["force"]
         assert force.getncattr("units") == "N s2" and force.getncattr("units_at_speed") == "N"
         assert force.getncattr("long_name")
-        w2 = nc["time"].variables["speed"][:] ** 2
+        # a sweep's speed coordinates are stored once, in the root group, which every group sees
+        assert "speed" not in nc["time"].variables and "speed" in nc.variables
+        assert nc.getncattr("speed_coordinates_of").split() == ["/time", "/orders", "/stars"]
+        w2 = nc.variables["speed"][:] ** 2
         np.testing.assert_array_equal(w2[:, None, None] * force[:], tree["time"].ds.force.values)
         moment = nc["orders"].variables["moment"]
         assert moment.getncattr("units_at_speed") == "N m"

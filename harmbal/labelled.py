@@ -34,21 +34,26 @@ CONVENTIONS = (
 #: Attribute of an archived variable stored at unit speed (see :mod:`harmbal.io.archive`).
 SPEED_SCALING = "speed_scaling"
 SPEED_SCALING_RULE = "stored at 1 rad/s: the value at crank speed w [rad/s] is the stored value times w**2"
+#: Suffix of the archived speed-independent part (gas loads) of a speed-scaled variable.
+SPEED_INDEPENDENT = "_speed_independent"
 
 
 class _SpeedScaled:
-    """Lazy ω²-scaled values: ``values[s, ...] = w2[s] * unit[...]``.
+    """Lazy ω²-scaled values: ``values[s, ...] = w2[s] * unit[...] + constant[...]``.
 
     A backend array in xarray's sense (shape, dtype, explicit indexing), so
     that a Variable holding it is indexed lazily and multiplied out only
-    where read. ``unit`` holds the values at ω = 1 rad/s.
+    where read. ``unit`` holds the inertial values at ω = 1 rad/s,
+    ``constant`` (None: zero) the part that does not depend on the speed
+    (the gas loads).
     """
 
-    def __init__(self, w2: np.ndarray, unit: np.ndarray):
+    def __init__(self, w2: np.ndarray, unit: np.ndarray, constant: np.ndarray | None = None):
         self.w2 = np.asarray(w2, dtype=float)
         self.unit = np.asarray(unit)
+        self.constant = None if constant is None else np.broadcast_to(constant, self.unit.shape)
         self.shape = self.w2.shape + self.unit.shape
-        self.dtype = np.result_type(self.w2, self.unit)
+        self.dtype = np.result_type(self.w2, self.unit, *(() if constant is None else (self.constant,)))
 
     def __getitem__(self, key):
         from xarray.core import indexing
@@ -57,10 +62,13 @@ class _SpeedScaled:
 
     def _outer(self, key: tuple):
         w2 = self.w2[key[0]]
-        unit = self.unit
+        unit, constant = self.unit, self.constant
         for axis in reversed(range(unit.ndim)):  # last axis first: an integer key drops no axis before it
-            unit = unit[(slice(None),) * axis + (key[axis + 1],)]
-        return np.multiply.outer(w2, unit) if np.ndim(w2) else w2 * unit
+            index = (slice(None),) * axis + (key[axis + 1],)
+            unit = unit[index]
+            constant = None if constant is None else constant[index]
+        values = np.multiply.outer(w2, unit) if np.ndim(w2) else w2 * unit
+        return values if constant is None else values + constant
 
 
 @functools.cache
@@ -71,15 +79,12 @@ def _speed_scaled_class():
     return type("SpeedScaled", (_SpeedScaled, BackendArray), {"__slots__": ()})
 
 
-def speed_scaled(w2, unit):
-    """The lazy product of ``w2`` (speed,) and ``unit`` (...)."""
-    return _speed_scaled_class()(w2, unit)
+def speed_scaled(w2, unit, constant=None):
+    """The lazy ``w2`` (speed,) × ``unit`` (...) + ``constant`` (...)."""
+    return _speed_scaled_class()(w2, unit, constant)
 
 
-def unit_speed_values(variable):
-    """The unit-speed array behind a variable built by :meth:`Speeds.variable`
-    over several speeds (None if it is not such a variable or has been
-    indexed since)."""
+def _lazy(variable):
     from xarray.core import indexing
 
     data = getattr(variable, "_data", None)
@@ -87,7 +92,21 @@ def unit_speed_values(variable):
         return None
     if any(k != slice(None) for k in data.key.tuple):
         return None
-    return data.array.unit
+    return data.array
+
+
+def unit_speed_values(variable):
+    """The unit-speed (inertial) array behind a variable built by
+    :meth:`Speeds.variable` over several speeds (None if it is not such a
+    variable or has been indexed since)."""
+    lazy = _lazy(variable)
+    return None if lazy is None else lazy.unit
+
+
+def speed_independent_values(variable):
+    """The speed-independent part (gas loads) of such a variable, None if it has none."""
+    lazy = _lazy(variable)
+    return None if lazy is None else lazy.constant
 
 
 class Speeds:
@@ -109,19 +128,23 @@ class Speeds:
             "rpm": variable(self.lead, self.values * 30 / np.pi, {"units": "rpm", "long_name": "crank speed"}),
         }
 
-    def scaled(self, unit):
-        """Values ``unit`` [at ω = 1 rad/s] times ω², multiplied out, with a
-        leading speed axis if several (for small arrays)."""
-        return np.multiply.outer(self.w2, unit) if self.several else self.w2 * np.asarray(unit)
+    def scaled(self, unit, constant=None):
+        """Values ``unit`` [at ω = 1 rad/s] times ω² (plus ``constant``, the
+        speed-independent part), multiplied out, with a leading speed axis if
+        several (for small arrays)."""
+        values = np.multiply.outer(self.w2, unit) if self.several else self.w2 * np.asarray(unit)
+        return values if constant is None else values + constant
 
-    def variable(self, dims: tuple, unit, attrs: dict):
-        """A variable of values ``unit`` [at ω = 1 rad/s] times ω²."""
+    def variable(self, dims: tuple, unit, attrs: dict, constant=None):
+        """A variable of values ``unit`` [at ω = 1 rad/s] times ω², plus
+        ``constant`` (the speed-independent gas loads) if given."""
         import xarray as xr
         from xarray.core import indexing
 
         if not self.several:
-            return variable(dims, self.w2 * np.asarray(unit), attrs)
-        return xr.Variable(self.lead + dims, indexing.LazilyIndexedArray(speed_scaled(self.w2, unit)), attrs)
+            return variable(dims, self.scaled(unit, constant), attrs)
+        lazy = speed_scaled(self.w2, unit, None if constant is None else np.asarray(constant))
+        return xr.Variable(self.lead + dims, indexing.LazilyIndexedArray(lazy), attrs)
 
 
 def dataset(data: dict, coords: dict, attrs: dict):

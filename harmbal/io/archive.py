@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from .files import atomic_path
-from ..labelled import SPEED_SCALING, SPEED_SCALING_RULE, Speeds, unit_speed_values
+from ..labelled import (SPEED_INDEPENDENT, SPEED_SCALING, SPEED_SCALING_RULE, Speeds, speed_independent_values,
+                        unit_speed_values)
 
 PART = "part"
 _ENCODING_ATTR = "complex_encoding"
@@ -42,23 +43,19 @@ class ArchiveError(ValueError):
 
 def _encode(ds):
     """Complex variables as (..., part); lazily speed-scaled variables as
-    their unit-speed array, without the ``speed`` dimension."""
+    their unit-speed array, without the ``speed`` dimension (and their
+    speed-independent part, if any, beside them)."""
     import xarray as xr
 
     out = {}
     for name, var in ds.data_vars.items():
-        variable, attrs = var.variable, dict(var.attrs)
-        unit = unit_speed_values(variable)
-        if unit is not None:
-            variable = xr.Variable(variable.dims[1:], unit)
-            attrs.update({SPEED_SCALING: SPEED_SCALING_RULE, _UNITS_AT_SPEED: attrs.get("units", "1")})
-            attrs["units"] = f"{attrs['units']} s2" if attrs.get("units", "1") != "1" else "s2"
-        if np.iscomplexobj(variable.dtype.type()):
-            values = variable.values
-            variable = xr.Variable(variable.dims + (PART,), np.stack([values.real, values.imag], axis=-1))
-            attrs[_ENCODING_ATTR] = _ENCODING
-        if variable is not var.variable:
-            out[name] = xr.Variable(variable.dims, variable.data, attrs)
+        for stored, variable, attrs in _unscaled(name, var.variable, dict(var.attrs)):
+            if np.iscomplexobj(variable.dtype.type()):
+                values = variable.values
+                variable = xr.Variable(variable.dims + (PART,), np.stack([values.real, values.imag], axis=-1))
+                attrs[_ENCODING_ATTR] = _ENCODING
+            if variable is not var.variable:
+                out[stored] = xr.Variable(variable.dims, variable.data, attrs)
     if not out:
         return ds
     encoded = ds.assign(out)
@@ -66,26 +63,51 @@ def _encode(ds):
         v.attrs.get(_ENCODING_ATTR) == _ENCODING for v in out.values()) else encoded
 
 
+def _unscaled(name: str, variable, attrs: dict):
+    """The variables that store ``variable``: itself, or its unit-speed array
+    with units × s² and the rule to scale it, plus its speed-independent part."""
+    import xarray as xr
+
+    unit = unit_speed_values(variable)
+    if unit is None:
+        return [(name, variable, attrs)]
+    units = attrs.get("units", "1")
+    constant = speed_independent_values(variable)
+    rule = SPEED_SCALING_RULE if constant is None else f"{SPEED_SCALING_RULE} plus {name}{SPEED_INDEPENDENT}"
+    scaled = (name, xr.Variable(variable.dims[1:], unit),
+              {**attrs, "units": f"{units} s2" if units != "1" else "s2", SPEED_SCALING: rule, _UNITS_AT_SPEED: units})
+    if constant is None:
+        return [scaled]
+    return [scaled, (f"{name}{SPEED_INDEPENDENT}", xr.Variable(variable.dims[1:], np.array(constant)),
+                     {"units": units, "long_name": f"speed-independent part (gas loads) of {name}"})]
+
+
 def _decode(ds):
     import xarray as xr
 
-    out = {}
+    plain = {}
     for name, var in ds.data_vars.items():
-        attrs = dict(var.attrs)
-        variable = var.variable
+        attrs, variable = dict(var.attrs), var.variable
         if attrs.pop(_ENCODING_ATTR, None) == _ENCODING:
             variable = variable.transpose(..., PART)
-            values = variable.values[..., 0] + 1j * variable.values[..., 1]
-            variable = xr.Variable(variable.dims[:-1], values)
+            variable = xr.Variable(variable.dims[:-1], variable.values[..., 0] + 1j * variable.values[..., 1])
+        plain[name] = (variable, attrs)
+    companions = {n for n in plain if n.endswith(SPEED_INDEPENDENT) and n[: -len(SPEED_INDEPENDENT)] in plain}
+    out = {}
+    for name, (variable, attrs) in plain.items():
+        if name in companions:
+            continue
         if attrs.pop(SPEED_SCALING, None) is not None:
             attrs["units"] = attrs.pop(_UNITS_AT_SPEED)
-            variable = Speeds(ds["speed"].values).variable(variable.dims, variable.values, attrs)
-        if variable is not var.variable:
+            constant = plain.get(f"{name}{SPEED_INDEPENDENT}")
+            variable = Speeds(ds["speed"].values).variable(
+                variable.dims, variable.values, attrs, constant=None if constant is None else constant[0].values)
+        if variable is not ds[name].variable:
             out[name] = xr.Variable(variable.dims, variable._data, attrs)
-    if not out:
+    if not out and not companions:
         return ds
-    decoded = ds.drop_vars(list(out)).assign(out)
-    decoded = decoded[[n for n in ds.data_vars]]  # keep the stored order of variables
+    decoded = ds.drop_vars(list(out) + sorted(companions)).assign(out)
+    decoded = decoded[[n for n in ds.data_vars if n not in companions]]  # keep the stored order of variables
     return decoded.drop_vars(PART) if PART in decoded.coords else decoded
 
 

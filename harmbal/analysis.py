@@ -7,11 +7,14 @@ import numpy as np
 from ._version import __version__
 from .labelled import CONVENTIONS, Speeds, dataset, tree
 from .model.evaluate import evaluate
+from .model.gas import gas_loads
+from .model.sampling import simulates_gas
 from .orders.phasors import order_phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
 from .views.stars import stars_dataset
 from .views.time import body_aliasing, body_moments, time_dataset
+from .views.torque import torque_dataset
 
 
 def scene_dataset(scene: Scene):
@@ -65,21 +68,29 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         (:func:`harmbal.simulate`), ``/orders``
         (:func:`harmbal.order_spectrum`), ``/stars``
         (:func:`harmbal.stars` without its free vectors, which are
-        ``/orders``'s); if the scene has lever balancers,
+        ``/orders``'s; inertia only, whole orders); with gas, ``/torque``
+        (:func:`harmbal.views.torque.torque_dataset`: pressure, gas and mass
+        torque, their orders, firing stars, torsional excitation); if the
+        scene has lever balancers,
         ``/joints`` (:func:`harmbal.joints`: joint forces and toggle
         diagnostics); if it has a ``[verify]`` table, ``/verify``
         (:func:`harmbal.verify`).
     """
     unit = evaluate(scene)
+    gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
     moments = body_moments(unit)
     aliasing = body_aliasing(unit, backend, moments)
-    time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing)
-    values, attrs = unit_orders(scene, unit, aliasing, backend)
+    time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing, gas=gas,
+                        backend=backend)
+    values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas)
     speeds = Speeds(scene.speeds)
-    orders = orders_dataset(values, attrs, speeds, speeds.coords())
+    orders = orders_dataset(values, attrs, speeds, speeds.coords(), constants=gas_values)
+    whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders
     groups = {"scene": scene_dataset(scene), "time": time, "orders": orders,
               "stars": stars_dataset(scene, order_phasors(scene, unit=unit, backend=backend),
-                                            totals=(values["force"].T, values["moment"].T))}
+                                     totals=(values["force"][whole].T, values["moment"][whole].T))}
+    if gas is not None:
+        groups["torque"] = torque_dataset(scene, unit, gas, backend=backend)
     if scene.levers:
         from .model.mechanism import joints
 

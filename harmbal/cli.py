@@ -155,7 +155,9 @@ def _run(args) -> None:
     if args.output is not None:
         _check_output(args.output)
     scene = _load(args.scene)
-    if args.output is None and scene.verify is None and not scene.levers:
+    from .model.sampling import simulates_gas
+
+    if args.output is None and scene.verify is None and not scene.levers and not simulates_gas(scene):
         print(_order_table_without_datasets(scene, args.backend))
         return
 
@@ -165,6 +167,11 @@ def _run(args) -> None:
 
     tree = analyse(scene, backend=args.backend)
     print(order_table(tree["orders"].ds))
+    if "torque" in tree.children:
+        from .reporting.tables import torque_table
+
+        print()
+        print(torque_table(tree["torque"].ds))
     if "verify" in tree.children:
         from .reporting.tables import verify_table
 
@@ -197,7 +204,7 @@ def _order_table_without_datasets(scene, backend: str) -> str:
     from .views.time import body_aliasing
 
     unit = evaluate(scene)
-    values, attrs = unit_orders(scene, unit, body_aliasing(unit, backend), backend)
+    values, attrs, _ = unit_orders(scene, unit, body_aliasing(unit, backend), backend)
     speeds = np.asarray(scene.speeds, dtype=float)
     w2 = speeds**2
     return order_table_of_arrays(attrs, speeds, lambda i: {name: w2[i] * np.asarray(v) for name, v in values.items()})

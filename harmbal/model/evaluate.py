@@ -55,6 +55,9 @@ class UnitLoads:
     * ``lever_arm`` (cylinder,): farthest distance of a cylinder's loads from
       the reference point [m]; ``decay_rates`` (cylinder + 1,): decay rate of
       each body's harmonics (cylinders, then the crankshaft's elements).
+    * ``drive_torque`` (cylinder, N): d(KE)/dθ of each cylinder's moving
+      parts [N m], the torque on the crank that keeps ω constant (the mass
+      torque), whether or not ``mass_torque`` puts its reaction on the block.
     """
 
     theta: np.ndarray
@@ -77,6 +80,7 @@ class UnitLoads:
     crankshaft_peak_moment: float
     lever_arm: np.ndarray
     decay_rates: np.ndarray
+    drive_torque: np.ndarray
 
     @property
     def samples_per_rev(self) -> int:
@@ -129,11 +133,12 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
 
     Returns
     -------
-    (force_c, force_n, roll) or None
+    (force_c, force_n, roll, power) or None
         Force along and across the cylinder axis [N] and moment about the
         crank axis in the direction of rotation [N m] (including the drive
-        torque's reaction if ``mass_torque`` is simulated), shape of ``psi``;
-        None if no planar effect is simulated.
+        torque's reaction if ``mass_torque`` is simulated), and the drive
+        torque d(KE)/dψ [N m] that keeps ω constant, shape of ``psi``; None
+        if no planar effect is simulated.
     """
     effects = model.effects
     r = _column([c.crank_radius for c in cylinders])
@@ -166,11 +171,12 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
     force_c = sum(p.force_c for p in planar) + np.zeros(shape)
     force_n = sum(p.force_n for p in planar) + np.zeros(shape)
     roll = sum(p.roll for p in planar) + np.zeros(shape)
+    power = sum(p.power for p in planar) + np.zeros(shape)
     if "mass_torque" in effects:
         # The drive keeps ω constant with torque T = d(KE)/dθ·ω²; the block
         # receives its reaction about the crank axis in the sense of rotation.
-        roll = roll + sum(p.power for p in planar)
-    return force_c, force_n, roll
+        roll = roll + power
+    return force_c, force_n, roll, power
 
 
 def _phase_rows(delta: np.ndarray, kind: np.ndarray, samples: int):
@@ -213,7 +219,7 @@ def cylinder_types(cylinders) -> tuple[list, np.ndarray]:
 #: (geometry and masses) define its type. A meta-test checks that the two sets
 #: cover every field of :class:`harmbal.scene.Cylinder`.
 PLACEMENT_FIELDS = ("label", "throw", "bank", "x", "throw_unbalances")
-TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston", "rod")
+TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston", "rod", "gas")
 
 
 def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
@@ -249,15 +255,17 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
 
     force = np.zeros((ncyl, 3, n))
     moment = np.zeros((ncyl, 3, n))
+    drive_torque = np.zeros((ncyl, n))
     type_planar = None
     peak_force = np.zeros(ncyl)
     peak_roll = np.zeros(ncyl)
     if planar is not None:
-        samples = np.stack(planar, axis=1)  # (row, c/n/roll, angle)
-        type_planar = samples[: len(representatives)]
+        samples = np.stack(planar, axis=1)  # (row, c/n/roll/drive torque, angle)
+        type_planar = samples[: len(representatives), :3]
         # Cylinder i's samples: its row rolled by its whole grid steps (index j + m_i).
         index = (np.arange(n)[None, :] + shift[:, None]) % n
-        local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll, angle)
+        local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll/drive torque, angle)
+        drive_torque = local[:, 3]
         # Local (c, n) -> transverse complex w = z + i·t, t 90° ahead of +z in
         # the direction of rotation (t = −sense·y); e_c ↔ e^{iβ}.
         w = (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * bank)[:, None]
@@ -322,7 +330,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
         peak_force=peak_force, peak_moment=peak_roll + arm * peak_force,
         crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
         crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
-        lever_arm=arm, decay_rates=decay_rates,
+        lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
     )
 
 

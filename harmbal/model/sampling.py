@@ -20,6 +20,16 @@ ALIAS_SAFETY = 4
 MAX_SAMPLES = 1 << 16
 
 
+#: Fewest samples per revolution when gas is simulated (0.5°): pressure traces are smooth only to
+#: their interpolation's order, so their harmonics decay algebraically, not geometrically.
+GAS_SAMPLES_PER_REV = 720
+
+
+def simulates_gas(scene: Scene) -> bool:
+    """Whether the scene's effects include gas and a cylinder has a pressure."""
+    return "gas" in scene.model.effects and any(getattr(c, "gas", None) is not None for c in scene.cylinders)
+
+
 class AccuracyWarning(UserWarning):
     """The requested accuracy needs more samples than harmbal will choose."""
 
@@ -34,8 +44,9 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
     orders ≥ N − K. The count is also at least 4K so that the spectral-tail
     estimate in :func:`harmbal.order_spectrum` covers the orders of interest,
     and above |n| + K for a balancer element turning at n× (a single harmonic
-    that would otherwise alias onto an order kept). ``decay_rates``:
-    :func:`body_decay_rates` if already computed.
+    that would otherwise alias onto an order kept). With gas, at least
+    :data:`GAS_SAMPLES_PER_REV`. ``decay_rates``: :func:`body_decay_rates`
+    if already computed.
     """
     sampling = scene.sampling
     if sampling.samples_per_rev is not None:
@@ -60,6 +71,8 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
                           f"λ close to 1 or a linkage close to its toggle position); using {8 * math.ceil(n / 8)}, the "
                           "results may be less accurate than asked: compare with a larger sampling.samples_per_rev",
                           AccuracyWarning, stacklevel=2)
+    if simulates_gas(scene):
+        n = max(n, GAS_SAMPLES_PER_REV)
     return 8 * math.ceil(n / 8)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..orders.spectrum import is_balanced
+from ..orders.spectrum import BALANCED_RTOL, is_balanced
 
 #: A sweep with more speeds than this prints its lowest and highest speed only.
 PRINTED_SPEEDS = 8
@@ -51,6 +51,31 @@ def order_table(orders) -> str:
     return order_table_of_arrays(orders.attrs, orders["speed"].values, at_speed)
 
 
+def torque_table(torque) -> str:
+    """Mean torque, IMEP and the orders of the crank's torque per speed, of a
+    torque Dataset (``/torque`` of an analysis with gas): amplitude (peak)
+    and phase of the total (gas − mass torque) and of the gas torque alone,
+    major orders (all cylinders' harmonics in phase) marked with *."""
+    imep = ", ".join(f"{label} {value / 1e5:.4g}" for label, value in
+                     zip(torque.cylinder.values, torque.imep.values))
+    lines = [f"Torque: mean {float(torque.mean_torque):.6g} N m; IMEP [bar] {imep}",
+             "Orders of the crank's torque, amplitude (peak) and phase at θ = 0; * major order."]
+    speeds = np.atleast_1d(torque["speed"].values)
+    gas = torque.gas_torque_order.sum("cylinder").values
+    scale = float(np.abs(gas).max())
+    for i in _printed_speeds(speeds * 30 / np.pi, lines):
+        total = torque.torque_order.isel(speed=i) if "speed" in torque.torque_order.dims else torque.torque_order
+        lines += ["", f"Speed {speeds[i] * 30 / np.pi:.6g} rpm ({speeds[i]:.6g} rad/s)",
+                  f"  {'order':>7}{'total [N m]':>19}{'gas [N m]':>19}"]
+        for k, (order, major) in enumerate(zip(torque.order.values, torque.major_order.values)):
+            if k == 0:
+                continue
+            label = f"{order:g}{'*' if major else ' '}"
+            lines.append(f"  {label:>7}" + _cell(complex(total.values[k]), scale, BALANCED_RTOL)
+                         + _cell(complex(gas[k]), scale, BALANCED_RTOL))
+    return "\n".join(lines)
+
+
 #: What :func:`order_table_of_arrays` reads of each speed.
 ORDER_VALUES = tuple(f"{p}{name}{q}" for name in ("force", "moment")
                      for p, q in (("", ""), ("", "_rotating"), ("", "_scale"), ("aliasing_error_", "")))
@@ -61,6 +86,7 @@ def order_table_of_arrays(attrs: dict, speeds, at_speed) -> str:
     the speeds [rad/s] and ``at_speed(i)``, the :data:`ORDER_VALUES` at speed
     ``i`` (arrays as in the order Dataset, without the speed dimension)."""
     rtol = float(attrs.get("balanced_rtol", 1e-10))
+    revs = int(attrs.get("revolutions", 1))
     ref = np.asarray(attrs.get("reference_point", [0.0, 0.0, 0.0]), dtype=float) * 1e3
     lines = [
         f"{attrs.get('engine', '')}: effects {attrs.get('effects', '')}; piston {attrs.get('piston_model')}, "
@@ -84,7 +110,8 @@ def order_table_of_arrays(attrs: dict, speeds, at_speed) -> str:
                 row = list(values[k]) + list(rotating[k])
                 if k == 0 and all(is_balanced(abs(v), scale, rtol) for v in row):
                     continue
-                lines.append(f"{'':{len(label) + 2}}{k:>5}" + "".join(_cell(v, scale, rtol) for v in row))
+                order = f"{k / revs:g}"  # half orders of a four-stroke cycle with gas
+                lines.append(f"{'':{len(label) + 2}}{order:>5}" + "".join(_cell(v, scale, rtol) for v in row))
             tail = float(np.max(sel[f"aliasing_error_{name}"]))
             lines.append(f"{'':{len(label) + 2}}aliasing estimate {tail:.2g} {units}")
     return "\n".join(lines)

@@ -7,6 +7,8 @@ import numpy as np
 from .._version import __version__
 from ..labelled import AXES, CONVENTIONS, Speeds, dataset
 from ..model.evaluate import UnitLoads, evaluate, moment_about
+from ..model.gas import GasLoads, gas_loads
+from ..model.sampling import simulates_gas
 from ..orders.spectrum import aliasing_estimate, phasors
 from ..scene import EFFECTS, Scene
 
@@ -39,8 +41,15 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         ``aliasing_error_force``/``aliasing_error_moment`` (per axis), the
         aliasing estimate of the order phasors summed body by body
         (:func:`body_aliasing`).
+
+        With gas (effect ``gas``), ``angle`` spans the working cycle: two
+        revolutions for a four-stroke engine (attribute ``revolutions``), and
+        ``moment`` adds the reaction of the gas torque about the crank axis,
+        which does not scale with ω² (see :mod:`harmbal.model.gas`).
     """
-    return time_dataset(scene, evaluate(scene, samples_per_rev), per_cylinder=per_cylinder)
+    unit = evaluate(scene, samples_per_rev)
+    gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
+    return time_dataset(scene, unit, per_cylinder=per_cylinder, gas=gas)
 
 
 def body_moments(unit: UnitLoads) -> tuple[np.ndarray, np.ndarray]:
@@ -76,40 +85,70 @@ def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None
     return tail[:3], tail[3:]
 
 
-def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None):
+def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy") -> np.ndarray:
+    """Aliasing estimate of the gas moment's phasors per axis (only x is
+    nonzero), summed over the cylinders without cancellation."""
+    n = gas.theta.size
+    tail = aliasing_estimate(np.abs(phasors(gas.torque, backend)), n, gas.revolutions * max_order).sum(axis=0)
+    return np.array([tail, 0.0, 0.0])
+
+
+def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None,
+                 gas: GasLoads | None = None, backend: str = "scipy"):
     """The time-domain Dataset of one evaluation (see :func:`simulate`);
     ``moments`` = :func:`body_moments` and ``aliasing`` = :func:`body_aliasing`
-    if already computed."""
+    if already computed; ``gas`` the gas loads if simulated (on the cycle's
+    grid, which repeats ``unit``'s revolution)."""
     moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
     crank_force, _ = unit.crankshaft()
     force = unit.force_cylinder.sum(axis=0) + crank_force
     moment = moment_cyl.sum(axis=0) + moment_crank
     alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moments=(moment_cyl, moment_crank))
+    # Speed-independent parts (gas) of the moment, its scale and aliasing estimate; the inertia repeats each turn.
+    theta, revs, extra = unit.theta, 1, {}
+    if gas is not None:
+        theta, revs = gas.theta, gas.revolutions
+        force, moment, moment_cyl = (np.tile(a, revs) for a in (force, moment, moment_cyl))
+        extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,
+                 "aliasing_error_moment": gas_aliasing(gas, scene.sampling.max_order, backend)}
     speeds = Speeds(scene.speeds)
-    var = speeds.variable
+
+    def var(dims, values, attrs, name=None):
+        return speeds.variable(dims, values, attrs, constant=extra.get(name))
+
     coords = speeds.coords()
     coords.update({
-        "angle": ("angle", unit.theta, {"units": "rad", "long_name": "crank angle θ",
-                                        "description": "angle of throw 1 from +z, in the direction of rotation"}),
+        "angle": ("angle", theta, {"units": "rad", "long_name": "crank angle θ",
+                                   "description": "angle of throw 1 from +z, in the direction of rotation"}),
         "axis": ("axis", list(AXES), {"long_name": "engine axis"}),
     })
     data = {
         "force": var(("axis", "angle"), force, {"units": "N", "long_name": "shaking force on the block"}),
         "moment": var(("axis", "angle"), moment,
-                      {"units": "N m", "long_name": "shaking moment on the block about the reference point"}),
+                      {"units": "N m", "long_name": "shaking moment on the block about the reference point"}, "moment"),
         "force_scale": var((), unit.force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
-        "moment_scale": var((), unit.moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
+        "moment_scale": var((), unit.moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"},
+                            "moment_scale"),
         "aliasing_error_force": var(("axis",), alias_force, {
             "units": "N", "long_name": "estimated aliasing error of the force phasors, body by body"}),
         "aliasing_error_moment": var(("axis",), alias_moment, {
-            "units": "N m", "long_name": "estimated aliasing error of the moment phasors, body by body"}),
+            "units": "N m", "long_name": "estimated aliasing error of the moment phasors, body by body"},
+            "aliasing_error_moment"),
     }
     if per_cylinder:
         coords["cylinder"] = ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"})
         dims = ("cylinder", "axis", "angle")
-        data["force_cylinder"] = var(dims, unit.force_cylinder, {"units": "N", "long_name": "force of one cylinder"})
-        data["moment_cylinder"] = var(dims, moment_cyl, {"units": "N m", "long_name": "moment of one cylinder"})
-    return dataset(data, coords, attributes(scene, unit.samples_per_rev))
+        data["force_cylinder"] = var(dims, np.tile(unit.force_cylinder, revs),
+                                     {"units": "N", "long_name": "force of one cylinder"})
+        if gas is not None:
+            extra["moment_cylinder"] = np.zeros_like(moment_cyl)
+            extra["moment_cylinder"][:, 0] = gas.sense * gas.roll
+        data["moment_cylinder"] = var(dims, moment_cyl, {"units": "N m", "long_name": "moment of one cylinder"},
+                                      "moment_cylinder")
+    attrs = attributes(scene, unit.samples_per_rev)
+    if gas is not None:
+        attrs["revolutions"] = revs
+    return dataset(data, coords, attrs)
 
 
 def attributes(scene: Scene, samples: int) -> dict:

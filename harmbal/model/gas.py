@@ -1,0 +1,118 @@
+"""Gas loads: the cylinder pressure on each piston, its torque on the crankshaft
+and the reaction on the block, over one working cycle.
+
+The gas pushes the piston towards the crank with F = (p − p_crankcase)·A and
+the cylinder head the other way with the same force on the same line (the
+bore axis), so it exerts no force and no transverse moment on the block. It
+drives the crankshaft with the torque T = −F·dc_B/dψ (virtual work: c_B is
+the piston pin's travel along the cylinder axis, exact for every offset),
+and the load that takes the engine's torque lies outside the block, so the
+block receives −T about the crank axis: the only gas load in the shaking
+moment. Unlike the inertia loads the gas loads do not scale with ω² (the
+scene gives one pressure trace for every speed), and a four-stroke cycle
+takes two revolutions: their period is 2π·cycle/2 and their spectrum has
+half orders.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kinematics import slider_crank
+from .sampling import simulates_gas
+from ..scene import Scene
+from ..scene.firing import cylinder_firing
+
+
+@dataclass(frozen=True, eq=False)
+class GasLoads:
+    """Gas loads of every cylinder on ``theta`` (M angles of one cycle, starting at 0).
+
+    * ``pressure`` (cylinder, M) [Pa]: absolute cylinder pressure;
+    * ``force`` (cylinder, M) [N]: (p − p_crankcase)·A on the piston, towards the crank;
+    * ``torque`` (cylinder, M) [N m]: on the crankshaft, in the direction of rotation;
+    * ``firing_angle`` (cylinder,) [rad]: θ of each cylinder's firing TDC;
+    * ``swept_volume`` (cylinder,) [m³]: piston area × stroke (0 without gas).
+    """
+
+    theta: np.ndarray
+    revolutions: int
+    sense: int
+    pressure: np.ndarray
+    force: np.ndarray
+    torque: np.ndarray
+    firing_angle: np.ndarray
+    swept_volume: np.ndarray
+
+    @property
+    def samples_per_rev(self) -> int:
+        return self.theta.size // self.revolutions
+
+    @property
+    def roll(self) -> np.ndarray:
+        """Moment of the gas on the block about the crank axis, in the
+        direction of rotation, per cylinder (cylinder, M) [N m]."""
+        return -self.torque
+
+    def moment(self) -> np.ndarray:
+        """The gas moment on the block in engine axes (axis, M) [N m]
+        (about any point: it is a pure couple)."""
+        moment = np.zeros((3, self.theta.size))
+        moment[0] = self.sense * self.roll.sum(axis=0)
+        return moment
+
+    @property
+    def moment_scale(self) -> float:
+        """Sum of the cylinders' peak gas torques [N m]."""
+        return float(np.abs(self.torque).max(axis=-1, initial=0.0).sum())
+
+
+def cycle_revolutions(scene: Scene) -> int:
+    """Revolutions in the period of the scene's loads: 2 for a four-stroke
+    engine with gas, else 1 (inertia alone repeats every revolution)."""
+    return scene.cycle // 2 if simulates_gas(scene) else 1
+
+
+def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
+    """Evaluate the gas loads of every cylinder over one cycle.
+
+    Parameters
+    ----------
+    scene : Scene
+        Cylinders (geometry and ``gas``), cycle, firing order and sense.
+    samples_per_rev : int
+        Samples per revolution; the cycle has ``samples_per_rev`` × cycle/2.
+
+    Returns
+    -------
+    GasLoads
+    """
+    from .pressure import cylinder_pressure
+
+    cyls = scene.cylinders
+    revolutions = scene.cycle // 2
+    m = samples_per_rev * revolutions
+    theta = 2 * np.pi * np.arange(m) / samples_per_rev
+    firing_angle = np.asarray(cylinder_firing(cyls, scene.cycle, scene.firing_order).angle, dtype=float)
+    pressure = np.zeros((len(cyls), m))
+    force = np.zeros((len(cyls), m))
+    torque = np.zeros((len(cyls), m))
+    swept = np.zeros(len(cyls))
+    series = scene.model.series_harmonics if scene.model.piston == "series" else None
+    for i, c in enumerate(cyls):
+        gas = getattr(c, "gas", None)
+        if gas is None:
+            continue
+        kin = slider_crank(theta + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset, series)
+        pressure[i] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, scene.cycle,
+                                        theta - firing_angle[i])
+        force[i] = (pressure[i] - gas.crankcase_pressure) * gas.piston_area
+        torque[i] = -force[i] * kin.db
+        # Stroke of the offset slider-crank: the pin's extremes, with rod and crank in line.
+        e = c.offset
+        stroke = np.sqrt((c.rod_length + c.crank_radius) ** 2 - e * e) - np.sqrt((c.rod_length - c.crank_radius) ** 2 - e * e)
+        swept[i] = gas.piston_area * stroke
+    return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
+                    torque=torque, firing_angle=firing_angle, swept_volume=swept)

@@ -1,0 +1,122 @@
+"""The torque view: cylinder pressure, gas and mass torque over the working
+cycle, their orders (half orders for a four-stroke engine), the firing stars
+and the torsional excitation, as a Dataset."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..labelled import Speeds, dataset
+from ..model.evaluate import UnitLoads
+from ..model.gas import GasLoads
+from ..orders.spectrum import is_balanced, phasors
+from ..scene import Scene
+from .time import attributes
+
+#: An order is "major" when the arms of its firing star coincide to within this (of the cylinder count).
+MAJOR_RTOL = 1e-9
+
+
+def firing_stars(firing_angle: np.ndarray, order: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Arms k·θ_f,i mod 2π of the firing star of each order k (order, cylinder)
+    and its resultant |Σ e^{−ikθ_f,i}| (order,): the factor by which the
+    cylinders' equal torque harmonics add up (the number of cylinders for a
+    major order, 0 for one that cancels)."""
+    arms = np.mod(np.multiply.outer(order, firing_angle), 2 * np.pi)
+    return arms, np.abs(np.exp(-1j * arms).sum(axis=-1))
+
+
+def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str = "scipy"):
+    """Pressure, gas torque, mass torque and their orders over the cycle.
+
+    Parameters
+    ----------
+    scene : Scene
+        Names, speeds and the cylinders' crank radii.
+    unit : UnitLoads
+        The inertia evaluation on the cycle's grid (its revolution repeats).
+    gas : GasLoads
+        The gas loads (:func:`harmbal.model.gas.gas_loads`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims ``cylinder``, ``angle`` (one cycle), ``order`` (0 … max_order in
+        steps of 1/revolutions), plus ``speed`` if the scene has several.
+
+        * ``pressure`` [Pa], ``gas_force`` [N] (on the piston, towards the
+          crank) and ``gas_torque`` [N m] (on the crankshaft, in the
+          direction of rotation) per cylinder over θ;
+        * ``mass_torque`` [N m] (θ): d(KE)/dθ·ω² of the moving parts, the
+          torque they take from the crank at constant speed;
+          ``torque`` [N m] = Σ gas_torque − mass_torque, the torque the crank
+          delivers to the load at constant speed;
+        * ``gas_torque_order`` (cylinder, order) and ``torque_order`` (order):
+          complex phasors C_k, T(θ) = Σ Re(C_k e^{ikθ}); ``mean_torque``
+          (the order-0 term) and ``imep`` per cylinder [Pa] = work per cycle /
+          swept volume;
+        * ``tangential_force_order`` (cylinder, order) [N]: the gas torque
+          phasors over the crank radius, the per-cylinder excitation of a
+          torsional-vibration model (phases include each cylinder's firing);
+        * ``firing_star_angle`` (order, cylinder), ``firing_star_resultant``
+          and ``major_order`` (order): the stars of the firing angles.
+    """
+    kmax = scene.sampling.max_order
+    revs = gas.revolutions
+    count = revs * kmax + 1
+    order = np.arange(count) / revs
+    speeds = Speeds(scene.speeds)
+    crank_radius = np.array([c.crank_radius for c in scene.cylinders])
+
+    # The mass torque repeats every revolution; over the cycle it has whole orders only.
+    mass_torque = np.tile(unit.drive_torque.sum(axis=0), revs)
+    gas_spectrum = phasors(gas.torque, backend)[:, :count]
+    mass_spectrum = np.zeros(count, dtype=complex)
+    mass_spectrum[::revs] = phasors(unit.drive_torque.sum(axis=0), backend)[: kmax + 1]
+    gas_total = gas_spectrum.sum(axis=0)
+    work = 2 * np.pi * revs * gas_spectrum[:, 0].real  # ∫T dθ over the cycle = ∮(p − p_crankcase) dV
+    imep = np.divide(work, gas.swept_volume, out=np.full_like(work, np.nan), where=gas.swept_volume > 0)
+    arms, resultant = firing_stars(gas.firing_angle, order)
+    major = is_balanced(resultant - len(scene.cylinders), len(scene.cylinders), MAJOR_RTOL)
+
+    coords = speeds.coords()
+    coords.update({
+        "cylinder": ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"}),
+        "angle": ("angle", gas.theta, {"units": "rad", "long_name": "crank angle θ"}),
+        "order": ("order", order, {"long_name": "order of crank speed", "units": "1"}),
+    })
+    phasor = "C_k with T(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"
+    data = {
+        "pressure": (("cylinder", "angle"), gas.pressure, {"units": "Pa", "long_name": "cylinder pressure (absolute)"}),
+        "gas_force": (("cylinder", "angle"), gas.force,
+                      {"units": "N", "long_name": "gas force on the piston, towards the crank"}),
+        "gas_torque": (("cylinder", "angle"), gas.torque,
+                       {"units": "N m", "long_name": "gas torque on the crankshaft, in the direction of rotation"}),
+        "mass_torque": speeds.variable(("angle",), mass_torque, {
+            "units": "N m", "long_name": "torque the moving parts take from the crank at constant speed, d(KE)/dθ·ω²"}),
+        "torque": speeds.variable(("angle",), -mass_torque, {
+            "units": "N m", "long_name": "torque delivered by the crank at constant speed (gas − mass torque)"},
+            constant=gas.torque.sum(axis=0)),
+        "gas_torque_order": (("cylinder", "order"), gas_spectrum,
+                             {"units": "N m", "long_name": "order phasor of one cylinder's gas torque",
+                              "description": phasor}),
+        "torque_order": speeds.variable(("order",), -mass_spectrum, {
+            "units": "N m", "long_name": "order phasor of the crank's torque (gas − mass torque)",
+            "description": phasor}, constant=gas_total),
+        "mean_torque": ((), gas_total[0].real, {"units": "N m", "long_name": "mean torque (the gas's; the mass "
+                                                                                "torque's mean is zero)"}),
+        "imep": (("cylinder",), imep, {"units": "Pa", "long_name": "indicated mean effective pressure",
+                                       "description": "work per cycle / swept volume"}),
+        "swept_volume": (("cylinder",), gas.swept_volume, {"units": "m3", "long_name": "swept volume"}),
+        "firing_angle": (("cylinder",), gas.firing_angle, {"units": "rad", "long_name": "crank angle θ of firing TDC"}),
+        "tangential_force_order": (("cylinder", "order"), gas_spectrum / crank_radius[:, None], {
+            "units": "N", "long_name": "order phasor of the gas tangential force at the crank pin (torque / radius)",
+            "description": phasor}),
+        "firing_star_angle": (("order", "cylinder"), arms,
+                              {"units": "rad", "long_name": "firing star arm k·θ_fire mod 2π"}),
+        "firing_star_resultant": (("order",), resultant, {"units": "1", "long_name": "|Σ exp(−i k θ_fire)|"}),
+        "major_order": (("order",), major, {"long_name": "all cylinders' torque harmonics in phase (major order)"}),
+    }
+    attrs = attributes(scene, unit.samples_per_rev)
+    attrs.update({"title": f"harmbal torque: {scene.name}", "revolutions": revs})
+    return dataset(data, coords, attrs)

@@ -8,13 +8,14 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
+from .read_gas import _GAS_KEYS
 from .schema import _MISSING, ConRod, Cylinder, Model, Piston, Unbalance, _join
 
 _GEOMETRY_KEYS = {"crank_radius", "rod_length", "pin_offset", "cylinder_offset"}
 _PISTON_KEYS = {"mass", "cg_offset"}
 _ROD_RIGID_KEYS = {"mass", "cg_from_big_end", "cg_offset", "inertia"}
 _ROD_SPLIT_KEYS = {"mass_big_end", "mass_small_end"}
-_CYLINDER_KEYS = {"label", "throw", "bank", "axial_position", "geometry", "piston", "rod", "throw_unbalance"}
+_CYLINDER_KEYS = {"label", "throw", "bank", "axial_position", "geometry", "piston", "rod", "throw_unbalance", "gas"}
 _UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle"}
 
 
@@ -23,14 +24,16 @@ class CylinderTables:
     primitives (``fail``, ``table``, ``quantity``, ...) it uses."""
 
     def shared(self, data: Mapping) -> dict[str, dict]:
-        """The shared [geometry], [piston] and [rod] tables every cylinder overrides."""
+        """The shared [geometry], [piston], [rod] and [gas] tables every cylinder overrides."""
         return {
             "geometry": self.table(data, "geometry", "geometry", _GEOMETRY_KEYS),
             "piston": self.table(data, "piston", "piston", _PISTON_KEYS),
             "rod": self.table(data, "rod", "rod", _ROD_RIGID_KEYS | _ROD_SPLIT_KEYS),
+            "gas": self.table(data, "gas", "gas", _GAS_KEYS) if "gas" in data else None,
         }
 
-    def cylinders(self, raw: Any, shared: dict, shared_unbalances: Any, model: Model) -> tuple[Cylinder, ...]:
+    def cylinders(self, raw: Any, shared: dict, shared_unbalances: Any, model: Model,
+                  cycle: int = 4) -> tuple[Cylinder, ...]:
         if raw is _MISSING:
             self.fail("cylinder", _MISSING, "missing: give at least one [[cylinder]]")
             return ()
@@ -41,12 +44,12 @@ class CylinderTables:
         for i, entry in enumerate(raw):
             path = f"cylinder[{i + 1}]"
             self.unknown(entry, path, _CYLINDER_KEYS)
-            cylinders.append(self.cylinder(entry, path, i, shared, shared_unbalances, model))
+            cylinders.append(self.cylinder(entry, path, i, shared, shared_unbalances, model, cycle))
         self.check_distinct(cylinders)
         return tuple(cylinders)
 
     def cylinder(self, entry: Mapping, path: str, index: int, shared: dict, shared_unbalances: Any,
-                 model: Model) -> Cylinder:
+                 model: Model, cycle: int = 4) -> Cylinder:
         label = entry.get("label", str(index + 1))
         if not isinstance(label, (str, int)) or isinstance(label, bool):
             self.fail(_join(path, "label"), label, "must be a string")
@@ -91,8 +94,9 @@ class CylinderTables:
         throw_unbalances = tuple(
             Unbalance(u.unbalance, u.angle, x + u.x) for u in self.unbalances(unbalances, upath, "axial_offset")
         )
+        gas = self.gas(self.gas_merged(shared["gas"], entry, path), cycle)
         return Cylinder(label=label, throw=throw, bank=bank, x=x, crank_radius=r, rod_length=l, pin_offset=e,
-                        cylinder_offset=h, piston=piston, rod=rod, throw_unbalances=throw_unbalances)
+                        cylinder_offset=h, piston=piston, rod=rod, throw_unbalances=throw_unbalances, gas=gas)
 
     def pair_at(self, table: dict, key: str, where: dict[str, str], section: str) -> tuple[float, float]:
         return self.quantity_list(table, key, where.get(key, section), "length", 2, [0, 0])  # type: ignore

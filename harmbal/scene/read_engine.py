@@ -8,8 +8,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, EFFECTS, MAX_SPEEDS, PISTON_MODELS, ROD_MODELS,
-                     ROTATIONS, Cylinder, Model, Sampling, _closest)
+from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, EFFECTS, INERTIA_EFFECTS, MAX_SPEEDS,
+                     PISTON_MODELS, ROD_MODELS, ROTATIONS, Cylinder, Model, Sampling, _closest)
 
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _SWEEP_KEYS = {"from", "to", "points"}
@@ -100,8 +100,10 @@ class EngineTables:
             return None
         return order
 
-    def model(self, table: Mapping) -> Model:
-        effects_raw = table.get("effects", list(EFFECTS))
+    def model(self, table: Mapping, has_gas: bool = False) -> Model:
+        """[model]; the default effects are those of inertia, plus "gas" if
+        the scene has a [gas] table (``has_gas``), which "gas" requires."""
+        effects_raw = table.get("effects", list(INERTIA_EFFECTS) + (["gas"] if has_gas else []))
         effects: set[str] = set()
         if not isinstance(effects_raw, list) or not all(isinstance(e, str) for e in effects_raw):
             self.fail("model.effects", effects_raw, "must be a list of effect names")
@@ -114,6 +116,9 @@ class EngineTables:
                 effects.add(effect)
             if len(effects) != len(effects_raw):
                 self.fail("model.effects", effects_raw, "an effect is listed twice")
+            if "gas" in effects and not has_gas:
+                self.fail("model.effects", effects_raw, 'the effect "gas" needs a [gas] table (bore and pressure '
+                          "trace)")
         piston = self.choice(table, "piston", "model", PISTON_MODELS, "exact")
         harmonics = self.integer(table, "series_harmonics", "model", 2, minimum=1)
         if "series_harmonics" in table and piston != "series":

@@ -28,6 +28,7 @@ from .elements import LinkageWarning
 from .read_balancers import BalancerTables
 from .read_cylinders import CylinderTables
 from .read_engine import _MODEL_KEYS, _SAMPLING_KEYS, EngineTables
+from .read_gas import GasTables
 from .read_requests import RequestTables
 from .schema import (_MISSING, EFFECTS, MAX_SPEEDS, Cylinder, Model, Problem, Scene, SceneError, _closest,
                      _join)
@@ -96,17 +97,21 @@ def _read(data: Mapping, text: str, source: str) -> Scene:
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
-    "lanchester_pair", "lever_balancer", "design", "verify",
+    "lanchester_pair", "lever_balancer", "design", "verify", "gas",
 }
 
 
-class _Reader(EngineTables, CylinderTables, BalancerTables, RequestTables):
+class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTables):
     """Walks the raw mapping, converts units, and collects problems."""
 
     def __init__(self, source: str):
         self.source = source
         self.problems: list[Problem] = []
         self.warnings: list[str] = []
+        # Files a scene names (pressure traces) are relative to the scene file; those of a mapping or a text
+        # without a file, to the working directory.
+        self.base = Path(source).parent if not source.startswith("<") else Path.cwd()
+        self.files: dict[Path, str] = {}
 
     # -- primitives --------------------------------------------------------
 
@@ -212,10 +217,13 @@ class _Reader(EngineTables, CylinderTables, BalancerTables, RequestTables):
     def scene(self, data: Mapping, text: str) -> Scene:
         self.unknown(data, "", _TOP_KEYS)
         engine, header = self.engine(data)
-        model = self.model(self.table(data, "model", "model", _MODEL_KEYS))
+        raw_cylinders = data.get("cylinder", _MISSING)
+        has_gas = "gas" in data or (isinstance(raw_cylinders, list)
+                                    and any(isinstance(c, Mapping) and "gas" in c for c in raw_cylinders))
+        model = self.model(self.table(data, "model", "model", _MODEL_KEYS), has_gas)
         sampling = self.sampling(self.table(data, "sampling", "sampling", _SAMPLING_KEYS))
-        cylinders = self.cylinders(data.get("cylinder", _MISSING), self.shared(data), data.get("throw_unbalance", []),
-                                   model)
+        cylinders = self.cylinders(raw_cylinders, self.shared(data), data.get("throw_unbalance", []), model,
+                                   header["cycle"])
         crankshaft = tuple(self.unbalances(data.get("crankshaft_unbalance", []), "crankshaft_unbalance",
                                            "axial_position"))
         firing_order = self.firing_order(engine, cylinders, header["cycle"])

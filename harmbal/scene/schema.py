@@ -16,7 +16,14 @@ import numpy as np
 from .elements import LeverBalancer, Shaft
 from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
 
-EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
+#: The effects of the moving masses: every scene simulates these unless its [model] says otherwise.
+INERTIA_EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
+#: Every effect a scene may name; "gas" (the cylinder pressure) is on by default only in scenes with a [gas]
+#: table. New effects go at the end: attributes list effects in this order.
+EFFECTS = INERTIA_EFFECTS + ("gas",)
+#: Crankcase pressure [Pa] when a scene gives none: one standard atmosphere.
+DEFAULT_CRANKCASE_PRESSURE = 101325.0
+INTERPOLATIONS = ("spline", "trigonometric")
 ROD_MODELS = ("rigid", "two_point", "two_point_couple")
 PISTON_MODELS = ("exact", "series")
 ROTATIONS = ("clockwise", "counterclockwise")
@@ -121,6 +128,62 @@ class Unbalance:
 
 
 @dataclass(frozen=True)
+class PressureTrace:
+    """A measured cylinder-pressure trace over one working cycle.
+
+    ``angle`` [rad] is the crank angle from this cylinder's firing TDC,
+    strictly increasing, spanning less than one cycle (π·cycle); the table is
+    read periodically, so the closing point (first angle + one cycle) is not
+    stored. ``pressure`` [Pa] is absolute. ``interpolation`` is ``"spline"``
+    (periodic cubic spline) or ``"trigonometric"`` (trigonometric polynomial);
+    ``source`` names where the table came from (a file path, or
+    ``"inline"``). Tuples, so that the trace hashes and compares by value.
+    """
+
+    angle: tuple[float, ...]
+    pressure: tuple[float, ...]
+    interpolation: str = "spline"
+    source: str = "inline"
+
+
+@dataclass(frozen=True)
+class Combustion:
+    """A parametric (synthetic) cylinder-pressure trace of a four-stroke engine:
+    polytropic compression and expansion with a single-zone Wiebe heat release
+    (see ``docs/gas.md``). SI: angles [rad] from firing TDC, pressures [Pa]
+    absolute. Exactly one of ``peak_pressure`` and ``imep`` is the target the
+    released heat is solved for."""
+
+    compression_ratio: float
+    intake_pressure: float
+    exhaust_pressure: float
+    compression_exponent: float
+    expansion_exponent: float
+    start: float
+    duration: float
+    shape: float
+    efficiency: float
+    peak_pressure: float | None = None
+    imep: float | None = None
+
+
+@dataclass(frozen=True)
+class Gas:
+    """The gas acting on one cylinder's piston: bore [m], crankcase pressure
+    [Pa] (absolute, on the underside of the piston) and the cylinder pressure,
+    measured or parametric."""
+
+    bore: float
+    crankcase_pressure: float
+    trace: PressureTrace | Combustion
+
+    @property
+    def piston_area(self) -> float:
+        """Piston crown area π·bore²/4 [m²]."""
+        return np.pi * self.bore**2 / 4
+
+
+@dataclass(frozen=True)
 class Cylinder:
     """One cylinder with its own throw, bank, position, geometry and masses."""
 
@@ -136,6 +199,8 @@ class Cylinder:
     rod: ConRod
     #: Unbalances on this throw; angles relative to the throw, x absolute.
     throw_unbalances: tuple[Unbalance, ...] = ()
+    #: The cylinder pressure, if the scene has a [gas] table.
+    gas: Gas | None = None
 
     @property
     def offset(self) -> float:
@@ -147,7 +212,7 @@ class Cylinder:
 class Model:
     """What to simulate and with which approximations."""
 
-    effects: frozenset[str] = frozenset(EFFECTS)
+    effects: frozenset[str] = frozenset(INERTIA_EFFECTS)
     piston: str = "exact"
     series_harmonics: int = 2
     rod: str = "rigid"

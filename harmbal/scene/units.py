@@ -31,6 +31,7 @@ SI_UNITS: dict[str, str] = {
     "unbalance": "kg m",
     "force": "N",
     "moment": "N m",
+    "pressure": "Pa",
     "dimensionless": "",
 }
 
@@ -148,6 +149,11 @@ _DERIVED: dict[str, tuple[float, tuple[tuple[str, int], ...]]] = {
     "revolutions_per_second": (1.0, (("turn", 1), ("second", -1))),
     "newton": (1.0, (("kilogram", 1), ("meter", 1), ("second", -2))),
     "kilonewton": (1000.0, (("newton", 1),)),
+    "pascal": (1.0, (("newton", 1), ("meter", -2))),
+    "kilopascal": (1000.0, (("pascal", 1),)),
+    "megapascal": (1000000.0, (("pascal", 1),)),
+    "bar": (100000.0, (("pascal", 1),)),
+    "millibar": (0.001, (("bar", 1),)),
 }
 
 #: The unit names a scene may write on the fast path -> pint's canonical name.
@@ -168,6 +174,7 @@ _NAMES: dict[str, str] = {
     "hours": "hour",
     "Hz": "hertz", "hertz": "hertz", "rpm": "revolutions_per_minute", "rps": "revolutions_per_second",
     "N": "newton", "newton": "newton", "newtons": "newton", "kN": "kilonewton",
+    "Pa": "pascal", "pascal": "pascal", "kPa": "kilopascal", "MPa": "megapascal", "bar": "bar", "mbar": "millibar",
 }
 
 #: The SI units of :data:`SI_UNITS` as pint parses them (names in pint's order).
@@ -180,6 +187,7 @@ _SI: dict[str, tuple[tuple[str, int], ...]] = {
     "unbalance": (("kilogram", 1), ("meter", 1)),
     "force": (("newton", 1),),
     "moment": (("newton", 1), ("meter", 1)),
+    "pressure": (("pascal", 1),),
     "dimensionless": (),
 }
 

@@ -1,0 +1,396 @@
+"""Cylinder pressure over one working cycle, from a scene's [gas] table.
+
+A measured trace (:class:`~harmbal.scene.schema.PressureTrace`) is read
+periodically by a periodic cubic spline or a trigonometric polynomial. A
+parametric one (:class:`~harmbal.scene.schema.Combustion`) is built here: the
+closed part of a four-stroke cycle (inlet valve closing at the BDC before
+firing TDC to exhaust valve opening at the BDC after it) integrates the first
+law of a single zone with a Wiebe heat release, the heat solved so that the
+peak pressure or the IMEP meets the scene's target; the open part is a
+blow-down, the exhaust stroke, a valve-overlap transition and the intake
+stroke. The model, its constants and its accuracy: ``docs/gas.md``.
+
+Angles α are crank angles from the cylinder's firing TDC: the TDC of the
+offset slider-crank (the piston's highest position, at ψ = :func:`firing_tdc_angle`),
+not ψ = 0.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..scene.schema import Combustion, Gas, PressureTrace, Problem, Scene, SceneError
+from .kinematics import slider_crank
+
+#: Step of the parametric trace's internal table [deg]: 14 400 points per four-stroke cycle, read by a
+#: periodic cubic spline (docs/gas.md gives its error).
+TABLE_STEP_DEG = 0.05
+#: Blow-down after exhaust valve opening [deg]: the pressure falls to the exhaust pressure along a half cosine.
+BLOWDOWN_DEG = 40.0
+#: Valve overlap [deg], centred on the gas-exchange TDC: the pressure goes from exhaust to intake pressure
+#: along a half cosine.
+OVERLAP_DEG = 40.0
+#: Relative and absolute tolerances of the closed-cycle integration (dimensionless pressure and work).
+_RTOL, _ATOL = 1e-12, 1e-14
+#: Largest number of points evaluated at once by the trigonometric sum (bounds its memory to ~64 MB).
+_CHUNK = 1 << 22
+
+
+def firing_tdc_angle(crank_radius: float, rod_length: float, offset: float) -> float:
+    """Local crank angle ψ [rad] of top dead centre of an offset slider-crank.
+
+    At TDC crank and rod are in line, so the crank pin points at the piston
+    pin, which is then at (l + r) from the crank axis on the line n = e:
+    ψ_TDC = arcsin(e / (l + r)). Zero for a centric crank.
+
+    Parameters
+    ----------
+    crank_radius, rod_length : float
+        r and l [m].
+    offset : float
+        Total offset e of the piston-pin path (pin offset + cylinder offset) [m].
+
+    Returns
+    -------
+    float
+        ψ at TDC [rad], small and of the sign of ``offset``.
+    """
+    return math.asin(offset / (rod_length + crank_radius))
+
+
+def bottom_dead_centre_angle(crank_radius: float, rod_length: float, offset: float) -> float:
+    """Local crank angle ψ [rad] of bottom dead centre: π + arcsin(e / (l − r))
+    (crank pin pointing away from the piston pin, crank and rod in line)."""
+    return math.pi + math.asin(offset / (rod_length - crank_radius))
+
+
+def stroke(crank_radius: float, rod_length: float, offset: float) -> float:
+    """Piston stroke [m] of an offset slider-crank: √((l+r)² − e²) − √((l−r)² − e²) (2r when e = 0)."""
+    return (math.sqrt((rod_length + crank_radius) ** 2 - offset**2)
+            - math.sqrt((rod_length - crank_radius) ** 2 - offset**2))
+
+
+def cylinder_pressure(gas: Gas, crank_radius: float, rod_length: float, offset: float, cycle: int,
+                      alpha: np.ndarray) -> np.ndarray:
+    """Absolute cylinder pressure [Pa] at crank angles alpha [rad] measured
+    from the cylinder's firing TDC (any real values; periodic with period π·cycle).
+
+    Parameters
+    ----------
+    gas : Gas
+        The cylinder's [gas] table: a measured trace or a parametric one.
+    crank_radius, rod_length, offset : float
+        The slider-crank [m] (``offset`` = pin offset + cylinder offset);
+        used by the parametric trace, whose volume they give.
+    cycle : int
+        Strokes per cycle (2 or 4): the period is π·cycle.
+    alpha : array_like
+        Crank angles from firing TDC [rad].
+
+    Returns
+    -------
+    ndarray
+        Pressure [Pa], the shape of ``alpha``.
+
+    Raises
+    ------
+    SceneError
+        If a parametric target cannot be met (naming ``gas.combustion.peak_pressure``
+        or ``gas.combustion.imep``).
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    if isinstance(gas.trace, PressureTrace):
+        return _measured(gas.trace, cycle)(alpha)
+    return combustion_trace(gas, crank_radius, rod_length, offset).evaluate(alpha)
+
+
+def check_gas(scene: Scene) -> None:
+    """Build every cylinder's parametric trace now, so that an infeasible
+    target is reported as a :class:`SceneError` naming the scene file, the
+    key and the cylinder before anything is computed."""
+    problems = []
+    for c in scene.cylinders:
+        if c.gas is not None and isinstance(c.gas.trace, Combustion):
+            try:
+                combustion_trace(c.gas, c.crank_radius, c.rod_length, c.offset)
+            except SceneError as exc:
+                problems += [Problem(scene.source, p.key, p.value, f"cylinder {c.label}: {p.rule}")
+                             for p in exc.problems]
+    if problems:
+        raise SceneError(problems)
+
+
+# --------------------------------------------------------------------------
+# Measured traces
+
+
+@lru_cache(maxsize=256)
+def _measured(trace: PressureTrace, cycle: int):
+    """The periodic interpolant of a measured trace (cached: traces hash by value)."""
+    period = math.pi * cycle
+    angle = np.asarray(trace.angle)
+    pressure = np.asarray(trace.pressure)
+    spline = _periodic_spline(angle, pressure, period)
+    if trace.interpolation == "spline":
+        return spline
+    return _trigonometric(angle, pressure, period, spline)
+
+
+def _periodic_spline(angle: np.ndarray, values: np.ndarray, period: float):
+    """Periodic cubic spline through the table closed by its first point one period on."""
+    from scipy.interpolate import CubicSpline
+
+    spline = CubicSpline(np.append(angle, angle[0] + period), np.append(values, values[0]), bc_type="periodic")
+    start = angle[0]
+
+    def evaluate(alpha: np.ndarray) -> np.ndarray:
+        return spline(start + np.mod(np.asarray(alpha, dtype=float) - start, period))
+
+    return evaluate
+
+
+def _trigonometric(angle: np.ndarray, pressure: np.ndarray, period: float, spline):
+    """The trigonometric polynomial through N uniformly spaced samples (exact
+    for a trace band-limited below N/2 harmonics of the cycle). A
+    non-uniform table is first resampled by its periodic spline onto N
+    uniform points from its first angle, so it is then only as good as the spline."""
+    n = angle.size
+    step = period / n
+    uniform = np.allclose(np.diff(angle), step, rtol=1e-9, atol=0) and abs(angle[-1] + step - angle[0] - period) <= (
+        1e-9 * step)
+    if not uniform:
+        pressure = spline(angle[0] + step * np.arange(n))
+    coefficients = np.fft.rfft(pressure) / n
+    weights = np.full(coefficients.size, 2.0)
+    weights[0] = 1.0
+    if n % 2 == 0:
+        weights[-1] = 1.0  # the Nyquist term, real for real samples: its cosine alone
+    coefficients = coefficients * weights
+    harmonics = np.arange(coefficients.size)
+    start = angle[0]
+
+    def evaluate(alpha: np.ndarray) -> np.ndarray:
+        alpha = np.asarray(alpha, dtype=float)
+        t = (2 * np.pi / period) * (alpha.ravel() - start)
+        out = np.empty(t.size)
+        rows = max(1, _CHUNK // harmonics.size)
+        for i in range(0, t.size, rows):  # chunks bound the (points × harmonics) matrix
+            phase = np.exp(1j * np.outer(t[i:i + rows], harmonics))
+            out[i:i + rows] = (phase @ coefficients).real
+        return out.reshape(alpha.shape)
+
+    return evaluate
+
+
+# --------------------------------------------------------------------------
+# Parametric traces
+
+
+@dataclass(frozen=True, eq=False)
+class CombustionTrace:
+    """A solved parametric trace of one four-stroke cylinder.
+
+    Attributes
+    ----------
+    alpha, pressure : ndarray
+        The internal table: uniform angles from inlet valve closing [rad]
+        (one cycle, 4π, step :data:`TABLE_STEP_DEG`) and absolute pressure [Pa].
+    heat : float
+        Heat released by combustion over the cycle, Q [J] (the Wiebe
+        function's asymptote; the share burnt by EVO is ``burnt_at_evo``).
+    burnt_at_evo : float
+        x_b at exhaust valve opening.
+    imep : float
+        Indicated mean effective pressure ∮p dV / V_swept [Pa].
+    peak_pressure, peak_angle : float
+        Largest pressure [Pa] and its angle from firing TDC [rad].
+    motored_peak, motored_imep : float
+        The same without combustion (Q = 0) [Pa].
+    swept_volume, clearance_volume : float
+        [m³].
+    ivc, evo : float
+        Inlet valve closing and exhaust valve opening (the BDCs) from firing TDC [rad].
+    """
+
+    alpha: np.ndarray
+    pressure: np.ndarray
+    heat: float
+    burnt_at_evo: float
+    imep: float
+    peak_pressure: float
+    peak_angle: float
+    motored_peak: float
+    motored_imep: float
+    swept_volume: float
+    clearance_volume: float
+    ivc: float
+    evo: float
+
+    def evaluate(self, alpha: np.ndarray) -> np.ndarray:
+        """Pressure [Pa] at angles from firing TDC [rad] (periodic, 4π)."""
+        return self._spline(alpha)
+
+    @property
+    def _spline(self):
+        spline = self.__dict__.get("_cached_spline")
+        if spline is None:
+            spline = _periodic_spline(self.alpha, self.pressure, 4 * math.pi)
+            object.__setattr__(self, "_cached_spline", spline)
+        return spline
+
+
+def combustion_trace(gas: Gas, crank_radius: float, rod_length: float, offset: float,
+                     heat: float | None = None) -> CombustionTrace:
+    """Solve (or, with ``heat``, just integrate) a parametric four-stroke trace.
+
+    Parameters
+    ----------
+    gas : Gas
+        With a :class:`~harmbal.scene.schema.Combustion` trace.
+    crank_radius, rod_length, offset : float
+        The slider-crank [m].
+    heat : float, optional
+        Heat released, Q [J]; if given, the target of the scene is ignored
+        (``heat=0`` gives the motored trace).
+
+    Returns
+    -------
+    CombustionTrace
+
+    Raises
+    ------
+    SceneError
+        If the target peak pressure or IMEP cannot be reached by any heat
+        release Q > 0.
+    """
+    if not isinstance(gas.trace, Combustion):
+        raise TypeError("combustion_trace needs a gas table with a Combustion trace")
+    return _combustion_trace(gas.trace, gas.bore, crank_radius, rod_length, offset, heat)
+
+
+@lru_cache(maxsize=256)
+def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
+                      heat: float | None) -> CombustionTrace:
+    from scipy.integrate import quad, solve_ivp
+    from scipy.optimize import brentq, minimize_scalar
+
+    area = math.pi * bore**2 / 4
+    psi_tdc = firing_tdc_angle(r, l, e)
+    psi_bdc = bottom_dead_centre_angle(r, l, e)
+    c_tdc = math.sqrt((l + r) ** 2 - e * e)
+    swept = area * stroke(r, l, e)
+    clearance = swept / (c.compression_ratio - 1)
+    ivc, evo = psi_bdc - 2 * math.pi - psi_tdc, psi_bdc - psi_tdc
+    # Dimensionless: pressures in p_IVC, volumes in V_swept, heat in p_IVC·V_swept.
+    p_ref, q_ref = c.intake_pressure, c.intake_pressure * swept
+
+    def volume(alpha):
+        """V / V_swept and its α-derivative."""
+        kin = slider_crank(np.asarray(alpha, dtype=float) + psi_tdc, r, l, e)
+        return (clearance + area * (c_tdc - kin.b)) / swept, -area * kin.db / swept
+
+    def burnt(alpha):
+        """Wiebe x_b and dx_b/dα (continued past the end of the duration: no jump in the heat release rate)."""
+        alpha = np.asarray(alpha, dtype=float)
+        s = np.clip((alpha - c.start) / c.duration, 0.0, None)
+        decay = np.exp(-c.efficiency * s ** (c.shape + 1))
+        rate = np.where(alpha > c.start, c.efficiency * (c.shape + 1) / c.duration * s**c.shape * decay, 0.0)
+        return 1 - decay, rate
+
+    def rates(alpha, y):
+        # y = (p_h, p_q, W_h, W_q): the pressure is linear in Q, p = p_h + Q·p_q, and so is the work.
+        v, dv = volume(alpha)
+        x, dx = burnt(alpha)
+        kappa = c.compression_exponent + (c.expansion_exponent - c.compression_exponent) * x
+        return [-kappa * y[0] * dv / v, -kappa * y[1] * dv / v + (kappa - 1) * dx / v, y[0] * dv, y[1] * dv]
+
+    n = round(720 / TABLE_STEP_DEG)
+    alpha = ivc + (4 * math.pi / n) * np.arange(n)
+    closed = alpha <= evo + 1e-9 * (4 * math.pi / n)
+    # Integrate piecewise so that the non-smooth start of the heat release (s^m) is a segment boundary.
+    breaks = [ivc, min(max(c.start, ivc), evo), min(max(c.start + c.duration, ivc), evo), evo]
+    y, solutions, table = [1.0, 0.0, 0.0, 0.0], [], np.zeros((2, int(closed.sum())))
+    for low, high in itertools.pairwise(breaks):
+        inside = (alpha >= low) & (alpha <= high) & closed
+        solution = solve_ivp(rates, (low, high), y, method="DOP853", rtol=_RTOL, atol=_ATOL, dense_output=True,
+                             t_eval=np.clip(alpha[inside], low, high))
+        table[:, inside[closed]] = solution.y[:2]
+        solutions.append((low, high, solution.sol))
+        y = solution.y[:, -1] if solution.t.size and solution.t[-1] == high else solution.sol(high)
+    p_h_evo, p_q_evo, w_h, w_q = y
+
+    def closed_pressure(a: float, q: float) -> float:
+        for low, high, sol in solutions:
+            if low <= a <= high:
+                values = sol(a)
+                return values[0] + q * values[1]
+        raise ValueError(a)
+
+    # The open part: p = base(α) + p_EVO·blow(α), both explicit; its work splits the same way.
+    blowdown, overlap, exchange = math.radians(BLOWDOWN_DEG), math.radians(OVERLAP_DEG), 2 * math.pi
+    p_exh, p_int = c.exhaust_pressure / p_ref, 1.0
+
+    def blow(a):
+        s = np.clip((np.asarray(a, dtype=float) - evo) / blowdown, 0.0, 1.0)
+        return 0.5 * (1 + np.cos(np.pi * s))
+
+    def base(a):
+        a = np.asarray(a, dtype=float)
+        s = np.clip((a - exchange + overlap / 2) / overlap, 0.0, 1.0)
+        return p_exh * (1 - blow(a)) + (p_int - p_exh) * 0.5 * (1 - np.cos(np.pi * s))
+
+    points = [evo + blowdown, exchange - overlap / 2, exchange + overlap / 2]
+    end = ivc + 4 * math.pi
+    w_base = quad(lambda a: float(base(a) * volume(a)[1]), evo, end, points=points, epsabs=1e-13, epsrel=1e-12,
+                  limit=200)[0]
+    w_blow = quad(lambda a: float(blow(a) * volume(a)[1]), evo, evo + blowdown, epsabs=1e-13, epsrel=1e-12)[0]
+    # IMEP/p_IVC = a + b·Q (dimensionless), exactly linear in the heat.
+    imep_a = w_h + w_base + p_h_evo * w_blow
+    imep_b = w_q + p_q_evo * w_blow
+
+    def peak(q: float) -> tuple[float, float]:
+        values = table[0] + q * table[1]
+        i = int(np.argmax(values))
+        low, high = alpha[max(i - 1, 0)], alpha[min(i + 1, table.shape[1] - 1)]
+        found = minimize_scalar(lambda a: -closed_pressure(a, q), bounds=(low, high), method="bounded",
+                                options={"xatol": 1e-12})
+        return (-found.fun, found.x) if -found.fun > values[i] else (values[i], alpha[i])
+
+    motored_peak = peak(0.0)[0]
+    if heat is not None:
+        q = heat / q_ref
+    elif c.peak_pressure is not None:
+        target = c.peak_pressure / p_ref
+        if not target > motored_peak:
+            raise _infeasible("peak_pressure", c.peak_pressure,
+                              f"below the motored peak pressure {motored_peak * p_ref / 1e5:.6g} bar (compression "
+                              "alone reaches it): raise the target, or lower compression_ratio or intake_pressure")
+        high = 1.0
+        while peak(high)[0] < target:
+            high *= 2
+        q = brentq(lambda q: peak(q)[0] - target, 0.0, high, xtol=1e-14, rtol=1e-14)
+    else:
+        target = c.imep / p_ref
+        q = (target - imep_a) / imep_b if imep_b > 0 else -1.0
+        if not q > 0:
+            raise _infeasible("imep", c.imep, f"no heat release reaches it: the motored IMEP is "
+                              f"{imep_a * p_ref / 1e5:.6g} bar and heat released by EVO adds to it only "
+                              f"{'positively' if imep_b > 0 else 'nothing'}")
+    pressure = np.empty(n)
+    pressure[closed] = table[0] + q * table[1]
+    pressure[~closed] = base(alpha[~closed]) + (p_h_evo + q * p_q_evo) * blow(alpha[~closed])
+    peak_value, peak_angle = peak(q)
+    return CombustionTrace(
+        alpha=alpha, pressure=pressure * p_ref, heat=q * q_ref, burnt_at_evo=float(burnt(evo)[0]),
+        imep=(imep_a + q * imep_b) * p_ref, peak_pressure=peak_value * p_ref, peak_angle=float(peak_angle),
+        motored_peak=motored_peak * p_ref, motored_imep=imep_a * p_ref, swept_volume=swept, clearance_volume=clearance,
+        ivc=ivc, evo=evo)
+
+
+def _infeasible(key: str, value: float, rule: str) -> SceneError:
+    return SceneError([Problem("[gas]", f"gas.combustion.{key}", f"{value / 1e5:.6g} bar", rule)])

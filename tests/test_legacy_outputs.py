@@ -30,7 +30,8 @@ CODE_ATTRS = {"harmbal_version"}
 
 
 def test_every_bundled_dataset_has_a_fixture():
-    assert STEMS == sorted(p.stem for p in (ROOT / "datasets" / "engines").glob("*.toml"))
+    # Scenes with cylinder pressure ("-gas") are newer than the legacy code: they have no archive.
+    assert STEMS == sorted(p.stem for p in (ROOT / "datasets" / "engines").glob("*.toml") if not p.stem.endswith("-gas"))
 
 
 def _scale(ds, name: str) -> float:

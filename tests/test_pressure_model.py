@@ -53,9 +53,9 @@ def volume(alpha, ratio):
 
 
 def diesel(**changes):
-    values = dict(compression_ratio=17.5, intake_pressure=1.5e5, exhaust_pressure=1.6e5, compression_exponent=1.36,
-                  expansion_exponent=1.30, start=math.radians(-6), duration=math.radians(55), shape=0.8,
-                  efficiency=6.908, peak_pressure=116e5)
+    values = {"compression_ratio": 17.5, "intake_pressure": 1.5e5, "exhaust_pressure": 1.6e5,
+              "compression_exponent": 1.36, "expansion_exponent": 1.30, "start": math.radians(-6),
+              "duration": math.radians(55), "shape": 0.8, "efficiency": 6.908, "peak_pressure": 116e5}
     values.update(changes)
     return Gas(BORE, 101325.0, Combustion(**values))
 

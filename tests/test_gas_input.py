@@ -1,0 +1,266 @@
+"""Reading [gas]: the effect's default, per-cylinder overrides, CSV traces and
+every validation rule (one problem each, naming the key)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import harmbal as hb
+from harmbal.cli import main
+from harmbal.scene import EFFECTS, SceneError
+from harmbal.scene.schema import Combustion, PressureTrace
+
+ANGLES = list(np.arange(0.0, 720.0, 10.0))
+
+
+def pressures(angles=ANGLES):
+    return [2.0 + math.cos(math.radians(a) / 2) for a in angles]
+
+
+def combustion(**changes):
+    table = {"compression_ratio": 17.5, "intake_pressure": "1.8 bar", "exhaust_pressure": "1.9 bar",
+             "compression_exponent": 1.36, "expansion_exponent": 1.30, "start": "-8 deg", "duration": "70 deg",
+             "shape": 2.0, "efficiency": 6.908, "peak_pressure": "116 bar"}
+    table.update(changes)
+    return {k: v for k, v in table.items() if v is not None}
+
+
+@pytest.fixture
+def gas_scene(base_scene):
+    base_scene["gas"] = {"bore": "86 mm", "trace": {"angle": ANGLES, "pressure": pressures(),
+                                                    "units": {"angle": "deg", "pressure": "bar"}}}
+    return base_scene
+
+
+def only_problem(mapping):
+    with pytest.raises(SceneError) as info:
+        hb.load_scene(mapping)
+    found = info.value.problems
+    assert len(found) == 1, [str(p) for p in found]
+    return found[0]
+
+
+def write_csv(tmp_path, text, name="trace.csv"):
+    (tmp_path / name).write_text(text)
+    return name
+
+
+def csv_text(angles=ANGLES, header="angle [deg],pressure [bar]"):
+    return "# synthetic\n" + header + "\n" + "".join(f"{a},{p}\n" for a, p in zip(angles, pressures(angles)))
+
+
+# -- what loads -------------------------------------------------------------------
+
+
+def test_inline_trace_is_read_in_si(gas_scene):
+    scene = hb.load_scene(gas_scene)
+    gas = scene.cylinders[0].gas
+    assert gas.bore == pytest.approx(0.086) and gas.crankcase_pressure == 101325.0
+    assert gas.piston_area == pytest.approx(math.pi * 0.086**2 / 4)
+    assert isinstance(gas.trace, PressureTrace) and gas.trace.interpolation == "spline"
+    assert gas.trace.angle[1] == pytest.approx(math.radians(10)) and gas.trace.pressure[0] == pytest.approx(3e5)
+    assert scene.cylinders[1].gas == gas and hash(scene.cylinders[1].gas) == hash(gas)
+
+
+def test_default_effects_add_gas_only_with_a_gas_table(gas_scene):
+    assert hb.load_scene(gas_scene).model.effects == frozenset(EFFECTS)
+    del gas_scene["gas"]
+    assert "gas" not in hb.load_scene(gas_scene).model.effects
+    assert EFFECTS[-1] == "gas"
+
+
+def test_gas_table_with_effects_without_gas_is_validated_but_off(gas_scene):
+    gas_scene["model"] = {"effects": ["reciprocating"]}
+    scene = hb.load_scene(gas_scene)
+    assert scene.model.effects == {"reciprocating"} and scene.cylinders[0].gas is not None
+    gas_scene["gas"]["bore"] = "-1 mm"
+    assert only_problem(gas_scene).key == "gas.bore"
+
+
+def test_gas_effect_without_gas_table_is_refused(base_scene):
+    base_scene["model"] = {"effects": ["reciprocating", "gas"]}
+    problem = only_problem(base_scene)
+    assert problem.key == "model.effects" and "[gas]" in problem.rule
+
+
+def test_cylinder_overrides_the_shared_gas_table(gas_scene, tmp_path):
+    name = write_csv(tmp_path, csv_text())
+    gas_scene["cylinder"][1]["gas"] = {"bore": "90 mm", "trace": {"file": str(tmp_path / name)}}
+    first, second = (c.gas for c in hb.load_scene(gas_scene).cylinders)
+    assert second.bore == pytest.approx(0.09) and first.bore == pytest.approx(0.086)
+    assert second.trace.source == str(tmp_path / name)
+    assert second.trace.pressure == pytest.approx(first.trace.pressure, rel=1e-15)
+    gas_scene["cylinder"][1]["gas"] = {"combustion": combustion()}  # a parametric trace replaces the measured one
+    assert isinstance(hb.load_scene(gas_scene).cylinders[1].gas.trace, Combustion)
+
+
+def test_csv_trace_relative_to_the_scene_file(tmp_path):
+    import tomli_w
+
+    (tmp_path / "traces").mkdir()
+    write_csv(tmp_path / "traces", csv_text())
+    scene = {"engine": {"name": "s", "speed": "3000 rpm"}, "geometry": {"crank_radius": "40 mm", "rod_length": "140 mm"},
+             "piston": {"mass": "0.4 kg"}, "rod": {"mass": "0.4 kg", "cg_from_big_end": "40 mm", "inertia": "0.001 kg m^2"},
+             "cylinder": [{"throw": "0 deg"}], "gas": {"bore": "86 mm", "trace": {"file": "traces/trace.csv"}}}
+    path = tmp_path / "engine.toml"
+    path.write_text(tomli_w.dumps(scene))
+    gas = hb.load_scene(path).cylinders[0].gas
+    assert gas.trace.source == str(tmp_path / "traces" / "trace.csv")
+    assert gas.trace.angle[-1] == pytest.approx(math.radians(710))
+
+
+def test_table_with_its_endpoint_drops_it(gas_scene):
+    angles = ANGLES + [720.0]
+    gas_scene["gas"]["trace"].update(angle=angles, pressure=pressures(angles))
+    assert len(hb.load_scene(gas_scene).cylinders[0].gas.trace.angle) == len(ANGLES)
+
+
+def test_any_range_of_one_cycle_is_accepted(gas_scene):
+    angles = [a - 360.0 for a in ANGLES]
+    gas_scene["gas"]["trace"].update(angle=angles, pressure=pressures(angles))
+    assert hb.load_scene(gas_scene).cylinders[0].gas.trace.angle[0] == pytest.approx(-2 * math.pi)
+
+
+def test_two_stroke_cycle_is_360_degrees(gas_scene):
+    gas_scene["engine"]["cycle"] = 2
+    assert "longer than a cycle" in only_problem(gas_scene).rule
+    angles = list(np.arange(0.0, 360.0, 10.0))
+    gas_scene["gas"]["trace"].update(angle=angles, pressure=pressures(angles))
+    assert len(hb.load_scene(gas_scene).cylinders[0].gas.trace.angle) == 36
+
+
+def test_bundled_gas_datasets_load():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent / "datasets" / "engines"
+    for path in sorted(root.glob("*-gas.toml")):
+        scene = hb.load_scene(path)
+        assert "gas" in scene.model.effects and all(c.gas is not None for c in scene.cylinders), path
+
+
+# -- every rule -------------------------------------------------------------------------
+
+
+def test_missing_csv_file_names_the_key_and_the_resolved_path(gas_scene, tmp_path):
+    gas_scene["gas"]["trace"] = {"file": str(tmp_path / "nope.csv")}
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.file" and str(tmp_path / "nope.csv") in problem.rule
+
+
+@pytest.mark.parametrize("text, needle", [
+    ("angle [deg],pressure [bar]\n0,1.0\n5,abc\n", "line 3"),
+    ("angle [deg],pressure [bar]\n0,1.0,7\n", "line 2"),
+])
+def test_unreadable_csv_names_the_line(gas_scene, tmp_path, text, needle):
+    gas_scene["gas"]["trace"] = {"file": str(tmp_path / write_csv(tmp_path, text))}
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.file" and needle in problem.rule
+
+
+def test_csv_without_units_in_its_header_takes_trace_units(gas_scene, tmp_path):
+    gas_scene["gas"]["trace"] = {"file": str(tmp_path / write_csv(tmp_path, csv_text(header="angle,pressure")))}
+    assert "longer than a cycle" in only_problem(gas_scene).rule  # plain numbers: radians
+    gas_scene["gas"]["trace"]["units"] = {"angle": "deg", "pressure": "bar"}
+    assert hb.load_scene(gas_scene).cylinders[0].gas.trace.pressure[0] == pytest.approx(3e5)
+
+
+def test_csv_header_units_contradicting_trace_units_are_refused(gas_scene, tmp_path):
+    gas_scene["gas"]["trace"] = {"file": str(tmp_path / write_csv(tmp_path, csv_text())),
+                                 "units": {"angle": "rad"}}
+    assert "header" in only_problem(gas_scene).rule
+
+
+@pytest.mark.parametrize("angles, values, key, needle", [
+    (ANGLES[:5] + [35.0] + ANGLES[6:], None, "gas.trace.angle", "strictly increasing"),
+    (ANGLES + [715.0, 730.0], None, "gas.trace.angle", "longer than a cycle"),
+    (ANGLES[:60], None, "gas.trace.angle", "trace shorter than a cycle"),
+    (ANGLES + [720.0], pressures(ANGLES) + [9.0], "gas.trace.pressure", "not periodic"),
+    (ANGLES, [-1.0] + pressures(ANGLES)[1:], "gas.trace.pressure", "positive"),
+    (ANGLES, [0.0] + pressures(ANGLES)[1:], "gas.trace.pressure", "positive"),
+    (ANGLES[:7], None, "gas.trace.angle", "at least 8 points"),
+    (ANGLES, pressures(ANGLES)[:-1], "gas.trace.pressure", "same length"),
+    (ANGLES[:3] + ["x"] + ANGLES[4:], None, "gas.trace.angle", "list of numbers"),
+])
+def test_bad_tables(gas_scene, angles, values, key, needle):
+    values = values if values is not None else pressures([a if isinstance(a, float) else 0.0 for a in angles])
+    gas_scene["gas"]["trace"].update(angle=angles, pressure=values)
+    problem = only_problem(gas_scene)
+    assert (problem.key, needle in problem.rule) == (key, True), str(problem)
+
+
+@pytest.mark.parametrize("edit, key, needle", [
+    ({"units": {"angle": "furlong", "pressure": "bar"}}, "gas.trace.units.angle", "unknown units"),
+    ({"units": {"angle": "deg", "pressure": "psi"}}, "gas.trace.units.pressure", "unknown units"),
+    ({"units": {"angle": "deg", "pressure": "bar", "time": "s"}}, "gas.trace.units.time", "unknown key"),
+    ({"interpolation": "linear"}, "gas.trace.interpolation", "must be one of"),
+    ({"file": "x.csv"}, "gas.trace", "exactly one"),
+    ({"smoothing": 1}, "gas.trace.smoothing", "unknown key"),
+])
+def test_bad_trace_keys(gas_scene, edit, key, needle):
+    gas_scene["gas"]["trace"].update(edit)
+    problem = only_problem(gas_scene)
+    assert (problem.key, needle in problem.rule) == (key, True), str(problem)
+
+
+@pytest.mark.parametrize("gas, key, needle", [
+    ({"bore": "86 mm"}, "gas", "exactly one"),
+    ({"bore": "86 mm", "trace": {"angle": ANGLES, "pressure": pressures()}, "combustion": combustion()}, "gas",
+     "exactly one"),
+    ({"trace": {"angle": ANGLES, "pressure": pressures(), "units": {"angle": "deg"}}}, "gas.bore", "missing"),
+    ({"bore": "86 mm", "crankcase_pressure": "1 m", "combustion": combustion()}, "gas.crankcase_pressure",
+     "has units m"),
+    ({"bore": "86 mm", "combustion": combustion(imep="18 bar")}, "gas.combustion", "exactly one target"),
+    ({"bore": "86 mm", "combustion": combustion(peak_pressure=None)}, "gas.combustion", "exactly one target"),
+    ({"bore": "86 mm", "combustion": combustion(compression_ratio=1.0)}, "gas.combustion.compression_ratio",
+     "greater than 1"),
+    ({"bore": "86 mm", "combustion": combustion(duration="0 deg")}, "gas.combustion.duration", "positive"),
+    ({"bore": "86 mm", "combustion": combustion(duration="200 deg")}, "gas.combustion.duration", "between"),
+    ({"bore": "86 mm", "combustion": combustion(expansion_exponent=0.9)}, "gas.combustion.expansion_exponent",
+     "(1, 2)"),
+    ({"bore": "86 mm", "combustion": combustion(intake_pressure="-1 bar")}, "gas.combustion.intake_pressure",
+     "positive"),
+    ({"bore": "86 mm", "combustion": combustion(start=-8)}, "gas.combustion.start", "looks like degrees"),
+    ({"bore": "86 mm", "combustion": combustion(speed=1)}, "gas.combustion.speed", "unknown key"),
+    ({"bore": "86 mm", "combustion": combustion(), "pressure": 1}, "gas.pressure", "unknown key"),
+])
+def test_bad_gas_tables(base_scene, gas, key, needle):
+    base_scene["gas"] = gas
+    problem = only_problem(base_scene)
+    assert (problem.key, needle in problem.rule) == (key, True), str(problem)
+
+
+def test_parametric_trace_needs_a_four_stroke(base_scene):
+    base_scene["engine"]["cycle"] = 2
+    base_scene["gas"] = {"bore": "86 mm", "combustion": combustion()}
+    problem = only_problem(base_scene)
+    assert problem.key == "gas.combustion" and "four-stroke" in problem.rule
+
+
+def test_cylinder_override_problems_name_the_cylinder(gas_scene):
+    gas_scene["cylinder"][1]["gas"] = {"trace": {"interpolation": "cubic"}}
+    assert only_problem(gas_scene).key == "cylinder[2].gas.trace.interpolation"
+
+
+def test_infeasible_target_names_the_key(base_scene):
+    from harmbal.model.pressure import check_gas
+
+    base_scene["gas"] = {"bore": "86 mm", "combustion": combustion(peak_pressure="20 bar")}
+    scene = hb.load_scene(base_scene)  # the trace is built, and found infeasible, by the model
+    with pytest.raises(SceneError) as info:
+        check_gas(scene)
+    assert {p.key for p in info.value.problems} == {"gas.combustion.peak_pressure"}
+    assert all(p.source == "<mapping>" and "motored" in p.rule for p in info.value.problems)
+
+
+def test_cli_run_with_missing_trace_file_exits_2_naming_the_key(tmp_path, gas_scene, capsys):
+    import tomli_w
+
+    gas_scene["gas"]["trace"] = {"file": "missing.csv"}
+    path = tmp_path / "engine.toml"
+    path.write_text(tomli_w.dumps(gas_scene))
+    archive = tmp_path / "out.nc"
+    assert main(["run", str(path), "-o", str(archive)]) == 2
+    err = capsys.readouterr().err
+    assert "gas.trace.file" in err and str(tmp_path / "missing.csv") in err
+    assert not archive.exists()

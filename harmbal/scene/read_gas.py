@@ -279,7 +279,7 @@ class GasTables:
             self.fail(_join(where.get("compression_ratio", section), "compression_ratio"), table["compression_ratio"],
                       "must be greater than 1")
         intake = q("intake_pressure", "pressure", positive=True)
-        exhaust = q("exhaust_pressure", "pressure", default=table.get("intake_pressure", _MISSING), positive=True)
+        exhaust = q("exhaust_pressure", "pressure", positive=True) if "exhaust_pressure" in table else intake
         exponents = []
         for key, default in (("compression_exponent", 1.35), ("expansion_exponent", 1.30)):
             n = q(key, "dimensionless", default=default)

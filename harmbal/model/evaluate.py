@@ -57,7 +57,8 @@ class UnitLoads:
       each body's harmonics (cylinders, then the crankshaft's elements).
     * ``drive_torque`` (cylinder, N): d(KE)/dθ of each cylinder's moving
       parts [N m], the torque on the crank that keeps ω constant (the mass
-      torque), whether or not ``mass_torque`` puts its reaction on the block.
+      torque), whether or not ``mass_torque`` puts its reaction on the block;
+      ``kinetic_energy`` (cylinder, N) [J] its kinetic energy.
     """
 
     theta: np.ndarray
@@ -81,6 +82,7 @@ class UnitLoads:
     lever_arm: np.ndarray
     decay_rates: np.ndarray
     drive_torque: np.ndarray
+    kinetic_energy: np.ndarray
 
     @property
     def samples_per_rev(self) -> int:
@@ -133,12 +135,12 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
 
     Returns
     -------
-    (force_c, force_n, roll, power) or None
+    (force_c, force_n, roll, power, energy) or None
         Force along and across the cylinder axis [N] and moment about the
         crank axis in the direction of rotation [N m] (including the drive
-        torque's reaction if ``mass_torque`` is simulated), and the drive
-        torque d(KE)/dψ [N m] that keeps ω constant, shape of ``psi``; None
-        if no planar effect is simulated.
+        torque's reaction if ``mass_torque`` is simulated), the drive
+        torque d(KE)/dψ [N m] that keeps ω constant and the kinetic energy
+        [J], shape of ``psi``; None if no planar effect is simulated.
     """
     effects = model.effects
     r = _column([c.crank_radius for c in cylinders])
@@ -172,11 +174,12 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
     force_n = sum(p.force_n for p in planar) + np.zeros(shape)
     roll = sum(p.roll for p in planar) + np.zeros(shape)
     power = sum(p.power for p in planar) + np.zeros(shape)
+    energy = sum(p.energy for p in planar) + np.zeros(shape)
     if "mass_torque" in effects:
         # The drive keeps ω constant with torque T = d(KE)/dθ·ω²; the block
         # receives its reaction about the crank axis in the sense of rotation.
         roll = roll + power
-    return force_c, force_n, roll, power
+    return force_c, force_n, roll, power, energy
 
 
 def _phase_rows(delta: np.ndarray, kind: np.ndarray, samples: int):
@@ -256,16 +259,17 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
     force = np.zeros((ncyl, 3, n))
     moment = np.zeros((ncyl, 3, n))
     drive_torque = np.zeros((ncyl, n))
+    kinetic_energy = np.zeros((ncyl, n))
     type_planar = None
     peak_force = np.zeros(ncyl)
     peak_roll = np.zeros(ncyl)
     if planar is not None:
-        samples = np.stack(planar, axis=1)  # (row, c/n/roll/drive torque, angle)
+        samples = np.stack(planar, axis=1)  # (row, c/n/roll/drive torque/energy, angle)
         type_planar = samples[: len(representatives), :3]
         # Cylinder i's samples: its row rolled by its whole grid steps (index j + m_i).
         index = (np.arange(n)[None, :] + shift[:, None]) % n
-        local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll/drive torque, angle)
-        drive_torque = local[:, 3]
+        local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll/drive torque/energy, angle)
+        drive_torque, kinetic_energy = local[:, 3], local[:, 4]
         # Local (c, n) -> transverse complex w = z + i·t, t 90° ahead of +z in
         # the direction of rotation (t = −sense·y); e_c ↔ e^{iβ}.
         w = (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * bank)[:, None]
@@ -331,6 +335,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
         crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
         crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
         lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
+        kinetic_energy=kinetic_energy,
     )
 
 

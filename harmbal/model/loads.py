@@ -6,9 +6,10 @@ the force −m·a_G and, about the crank axis, the moment −(r_G × m·a_G + I�
 
 Planar loads are returned in the cylinder's local frame (see
 :mod:`harmbal.kinematics`) as a :class:`PlanarLoad`; ``roll`` is the moment
-about the crank axis, positive in the direction of rotation, and ``power`` is
-d(kinetic energy)/dθ of the bodies involved, from which the reaction of the
-torque that keeps the crank at constant speed follows (``mass_torque``).
+about the crank axis, positive in the direction of rotation, ``energy`` the
+kinetic energy of the bodies involved and ``power`` its derivative d/dθ, from
+which the reaction of the torque that keeps the crank at constant speed
+follows (``mass_torque``).
 
 Which functions run is decided by the scene's effects in
 :mod:`harmbal.model.evaluate`; an effect that is not asked for is never computed.
@@ -25,13 +26,14 @@ from .kinematics import SliderCrank
 
 @dataclass(frozen=True)
 class PlanarLoad:
-    """Force (c, n) on the block, roll moment about the crank axis, and
-    power d(KE)/dθ at unit speed; arrays of shape (cylinder, angle)."""
+    """Force (c, n) on the block, roll moment about the crank axis, kinetic
+    energy and power d(KE)/dθ at unit speed; arrays of shape (cylinder, angle)."""
 
     force_c: np.ndarray
     force_n: np.ndarray
     roll: np.ndarray
     power: np.ndarray
+    energy: np.ndarray
 
 
 def _cross(p, q):
@@ -58,6 +60,7 @@ def reciprocating(kin: SliderCrank, piston_mass, piston_lateral, rod_small_end) 
         force_n=np.zeros_like(force_c),
         roll=-lever * force_c,
         power=mass * kin.db * kin.ddb,
+        energy=mass * kin.db**2 / 2,
     )
 
 
@@ -68,7 +71,8 @@ def rotating_rod(a, rod_big_end) -> PlanarLoad:
     """
     force_c, force_n = rod_big_end * a[0], rod_big_end * a[1]
     zero = np.zeros(np.broadcast_shapes(np.shape(force_c), np.shape(force_n)))
-    return PlanarLoad(force_c=force_c + zero, force_n=force_n + zero, roll=zero, power=zero)
+    return PlanarLoad(force_c=force_c + zero, force_n=force_n + zero, roll=zero, power=zero,
+                      energy=rod_big_end * (a[0] ** 2 + a[1] ** 2) / 2 + zero)
 
 
 def rod_inertia(kin: SliderCrank, mass, cg_along, cg_lateral, inertia, length, off_axis: bool) -> PlanarLoad:
@@ -83,6 +87,7 @@ def rod_inertia(kin: SliderCrank, mass, cg_along, cg_lateral, inertia, length, o
     deficit = inertia - mass * cg_along * (length - cg_along)
     roll = -deficit * kin.ddrod_angle
     power = deficit * kin.drod_angle * kin.ddrod_angle
+    energy = deficit * kin.drod_angle**2 / 2
     force_c = np.zeros_like(roll)
     force_n = np.zeros_like(roll)
     if off_axis:
@@ -92,7 +97,8 @@ def rod_inertia(kin: SliderCrank, mass, cg_along, cg_lateral, inertia, length, o
         force_n = -mass * (ddg[1] - ddg0[1])
         roll = roll - mass * (_cross(g, ddg) - _cross(g0, ddg0))
         power = power + mass * (_dot(dg, ddg) - _dot(dg0, ddg0))
-    return PlanarLoad(force_c=force_c, force_n=force_n, roll=roll, power=power)
+        energy = energy + mass * (_dot(dg, dg) - _dot(dg0, dg0)) / 2
+    return PlanarLoad(force_c=force_c, force_n=force_n, roll=roll, power=power, energy=energy)
 
 
 def rotating_unbalance(angle, unbalance, x, sense: int):

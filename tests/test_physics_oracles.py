@@ -27,12 +27,15 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import mpmath as mp
 import numpy as np
 import pytest
 
 import harmbal as hb
+
+ROOT = Path(__file__).resolve().parent.parent
 
 # --------------------------------------------------------------------------
 # Independent helpers
@@ -695,3 +698,18 @@ def test_v_twin_common_pin(gamma, rotation):
     got = o.force_rotating.values
     np.testing.assert_allclose(got[1:, 0], co[1:], rtol=0, atol=1e-12 * U1)
     np.testing.assert_allclose(got[1:, 1], counter[1:], rtol=0, atol=1e-12 * U1)
+
+
+@pytest.mark.parametrize("name", ["tractor-3cyl", "v6-90-split-pin", "lever-single"])
+def test_kinetic_energy_derivative_is_the_drive_torque(name):
+    """Work–energy: the drive torque that keeps ω constant is d(KE)/dθ (spectral
+    derivative of the kinetic energy, exact for the band-limited samples)."""
+    from harmbal.model.evaluate import evaluate
+
+    scene = hb.load_scene(ROOT / "datasets" / "engines" / f"{name}.toml")
+    unit = evaluate(scene, 512)
+    energy, torque = unit.kinetic_energy.sum(axis=0), unit.drive_torque.sum(axis=0)
+    k = np.fft.rfftfreq(512, 1 / 512)
+    derivative = np.fft.irfft(1j * k * np.fft.rfft(energy), 512)
+    np.testing.assert_allclose(derivative, torque, rtol=0, atol=1e-10 * np.abs(torque).max())
+    assert energy.min() > 0

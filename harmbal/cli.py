@@ -345,7 +345,12 @@ def _load(path: Path):
     from .scene import SceneError, load_scene
 
     try:
-        return load_scene(path)
+        scene = load_scene(path)
+        if any(c.gas is not None for c in scene.cylinders):
+            from .model.pressure import check_gas
+
+            check_gas(scene)  # an infeasible combustion target exits 2 before anything is computed
+        return scene
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except OSError as exc:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kinematics import slider_crank
-from .sampling import simulates_gas
+from .pressure import check_gas, cylinder_pressure
 from ..scene import Scene
 from ..scene.firing import cylinder_firing
 
@@ -47,10 +47,6 @@ class GasLoads:
     swept_volume: np.ndarray
 
     @property
-    def samples_per_rev(self) -> int:
-        return self.theta.size // self.revolutions
-
-    @property
     def roll(self) -> np.ndarray:
         """Moment of the gas on the block about the crank axis, in the
         direction of rotation, per cylinder (cylinder, M) [N m]."""
@@ -69,12 +65,6 @@ class GasLoads:
         return float(np.abs(self.torque).max(axis=-1, initial=0.0).sum())
 
 
-def cycle_revolutions(scene: Scene) -> int:
-    """Revolutions in the period of the scene's loads: 2 for a four-stroke
-    engine with gas, else 1 (inertia alone repeats every revolution)."""
-    return scene.cycle // 2 if simulates_gas(scene) else 1
-
-
 def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     """Evaluate the gas loads of every cylinder over one cycle.
 
@@ -89,8 +79,7 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     -------
     GasLoads
     """
-    from .pressure import cylinder_pressure
-
+    check_gas(scene)
     cyls = scene.cylinders
     revolutions = scene.cycle // 2
     m = samples_per_rev * revolutions
@@ -102,7 +91,7 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     swept = np.zeros(len(cyls))
     series = scene.model.series_harmonics if scene.model.piston == "series" else None
     for i, c in enumerate(cyls):
-        gas = getattr(c, "gas", None)
+        gas = c.gas
         if gas is None:
             continue
         kin = slider_crank(theta + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset, series)

@@ -27,7 +27,7 @@ GAS_SAMPLES_PER_REV = 720
 
 def simulates_gas(scene: Scene) -> bool:
     """Whether the scene's effects include gas and a cylinder has a pressure."""
-    return "gas" in scene.model.effects and any(getattr(c, "gas", None) is not None for c in scene.cylinders)
+    return "gas" in scene.model.effects and any(c.gas is not None for c in scene.cylinders)
 
 
 class AccuracyWarning(UserWarning):

@@ -171,3 +171,87 @@ def test_cli_prints_half_orders(capsys):
     assert main(["run", str(scene)]) == 0
     out = capsys.readouterr().out
     assert " 0.5 " in out or "  0.5" in out
+
+
+def test_speed_fluctuation_against_an_integration_written_here():
+    """ω(θ) of /torque solves J(θ)·ω·dω/dθ + ½·J'(θ)·ω² = T_gas − T_L with
+    J = J₀ + (m_piston + m_small)·c_B'² + m_big·r² (two-point rod), integrated
+    here by solve_ivp from /torque's ω at θ = 0."""
+    from scipy.integrate import solve_ivp
+
+    mapping_scene = hb.load_scene({**_mapping_with({"model": {"effects": INERTIA + ["gas"], "rod": "two_point"},
+                                                   "flywheel": {"inertia": "0.25 kg m^2"}})})
+    torque = hb.analyse(mapping_scene)["torque"].ds
+    c = mapping_scene.cylinders[0]
+    r, l, e = c.crank_radius, c.rod_length, c.offset
+    small = c.rod.mass * c.rod.cg_from_big_end / l
+    big = c.rod.mass - small
+    theta = torque.angle.values
+    gas_torque = torque.gas_torque.sum("cylinder").values
+    load = float(torque.load_torque)
+    assert load == pytest.approx(gas_torque.mean(), rel=1e-12)
+    # The gas torque between the samples: its trigonometric interpolant (it is band-limited on the grid).
+    spectrum = np.fft.rfft(gas_torque) / theta.size
+
+    def gas_at(t):
+        k = np.arange(spectrum.size)
+        weights = np.where((k == 0) | (2 * k == theta.size), 1.0, 2.0)
+        return float(np.real(np.sum(weights * spectrum * np.exp(1j * k * t / 2))))
+
+    def inertia(t):
+        _, dtravel = _pin_travel(t, r, l, e)
+        return 0.25 + (c.piston.mass + small) * dtravel**2 + big * r * r
+
+    def rhs(t, y):
+        h = 1e-6
+        dj = (inertia(t + h) - inertia(t - h)) / (2 * h)
+        w = y[0]
+        return [(gas_at(t) - load - 0.5 * dj * w * w) / (inertia(t) * w)]
+
+    omega = torque.omega.values
+    step = 8
+    sol = solve_ivp(rhs, (0.0, theta[-1]), [omega[0]], t_eval=theta[::step], rtol=1e-11, atol=1e-9, method="DOP853")
+    np.testing.assert_allclose(sol.y[0], omega[::step], rtol=2e-7)
+    # The coefficient takes the extremes between the samples too: the samples' spread is a little less.
+    sampled = (omega.max() - omega.min()) / (1500 * np.pi / 30)
+    assert sampled <= float(torque.fluctuation_coefficient) <= sampled * (1 + 2e-3)
+
+
+def _mapping_with(extra: dict) -> dict:
+    mapping = {
+        "engine": {"name": "gas-test", "cycle": 4, "rotation": "clockwise", "speed": "1500 rpm",
+                   "reference_point": ["0 mm", "0 mm", "0 mm"]},
+        "sampling": {"max_order": 8},
+        "geometry": {"crank_radius": "45 mm", "rod_length": "150 mm", "pin_offset": "1 mm"},
+        "piston": {"mass": "0.5 kg"},
+        "rod": {"mass": "0.6 kg", "cg_from_big_end": "40 mm", "inertia": "0.002 kg m^2"},
+        "cylinder": SINGLE,
+        "gas": {"bore": "86 mm", "crankcase_pressure": "1 bar", "trace": _trace()},
+    }
+    mapping.update(extra)
+    return mapping
+
+
+def test_flywheel_needed_meets_the_target():
+    tree = hb.analyse(hb.load_scene(_mapping_with({"flywheel": {"inertia": "0.1 kg m^2", "target_coefficient": 0.01}})))
+    needed = float(tree["torque"].ds.flywheel_inertia_needed)
+    again = hb.analyse(hb.load_scene(_mapping_with({"flywheel": {"inertia": f"{needed!r} kg m^2"}})))
+    assert float(again["torque"].ds.fluctuation_coefficient) == pytest.approx(0.01, rel=1e-9)
+
+
+@pytest.mark.parametrize("flywheel, key", [
+    ({"inertia": "0 kg m^2"}, "flywheel.inertia"),
+    ({"inertia": "1 kg m^2", "target_coefficient": 1.5}, "flywheel.target_coefficient"),
+    ({"inertia": "1 kg m^2", "mean": "median"}, "flywheel.mean"),
+    ({"inertia": "1 kg"}, "flywheel.inertia"),
+])
+def test_flywheel_validation(flywheel, key):
+    with pytest.raises(hb.SceneError, match=key.replace(".", r"\.")):
+        hb.load_scene(_mapping_with({"flywheel": flywheel}))
+
+
+def test_flywheel_needs_gas():
+    mapping = _mapping_with({"flywheel": {"inertia": "1 kg m^2"}})
+    del mapping["gas"]
+    with pytest.raises(hb.SceneError, match="needs a \\[gas\\] table"):
+        hb.load_scene(mapping)

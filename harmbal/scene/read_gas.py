@@ -16,10 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from .schema import _MISSING, DEFAULT_CRANKCASE_PRESSURE, INTERPOLATIONS, Combustion, Gas, PressureTrace, _join
+from .schema import (_MISSING, DEFAULT_CRANKCASE_PRESSURE, INTERPOLATIONS, SPEED_MEANS, Combustion, Flywheel, Gas,
+                     PressureTrace, _join)
 from .units import to_si
 
 _GAS_KEYS = {"bore", "crankcase_pressure", "trace", "combustion"}
+_FLYWHEEL_KEYS = {"inertia", "load_torque", "target_coefficient", "mean"}
 _TRACE_KEYS = {"angle", "pressure", "file", "units", "interpolation"}
 _COMBUSTION_KEYS = {"compression_ratio", "intake_pressure", "exhaust_pressure", "compression_exponent",
                     "expansion_exponent", "start", "duration", "shape", "efficiency", "peak_pressure", "imep"}
@@ -39,10 +41,29 @@ _HEADER_UNITS = re.compile(r"^\s*([A-Za-z_ ]*?)\s*[\[(]\s*([^\])]+?)\s*[\])]\s*$
 
 
 class GasTables:
-    """The [gas] tables; mixed into the scene reader, whose primitives
-    (``fail``, ``table``, ``quantity``, ...) it uses. ``base`` is the
-    directory trace files are relative to, ``files`` the trace files read
+    """The [gas] tables and [flywheel]; mixed into the scene reader, whose
+    primitives (``fail``, ``table``, ``quantity``, ...) it uses. ``base`` is
+    the directory trace files are relative to, ``files`` the trace files read
     so far (path -> text)."""
+
+    def flywheel(self, data: Mapping, has_gas: bool) -> Flywheel | None:
+        """[flywheel]: what the speed fluctuation needs beyond the gas torque."""
+        if "flywheel" not in data:
+            return None
+        table = self.table(data, "flywheel", "flywheel", _FLYWHEEL_KEYS)
+        if not has_gas:
+            self.fail("flywheel", data["flywheel"], "the speed fluctuation is driven by the gas torque: "
+                      "it needs a [gas] table")
+        inertia = self.quantity(table, "inertia", "flywheel", "inertia", positive=True)
+        load = self.quantity(table, "load_torque", "flywheel", "moment") if "load_torque" in table else None
+        target = None
+        if "target_coefficient" in table:
+            target = self.quantity(table, "target_coefficient", "flywheel", "dimensionless", positive=True)
+            if not target < 1:
+                self.fail("flywheel.target_coefficient", table["target_coefficient"],
+                          "must be below 1 (δ = (ω_max − ω_min)/ω_mean; engines need about 0.002–0.05)")
+        mean = self.choice(table, "mean", "flywheel", SPEED_MEANS, "time")
+        return Flywheel(inertia=inertia, load_torque=load, target_coefficient=target, mean=mean)
 
     def gas_merged(self, shared: Mapping | None, entry: Mapping, path: str) -> tuple[dict, dict[str, str]] | None:
         """A cylinder's gas table: the shared [gas] overlaid key by key by its

@@ -97,7 +97,7 @@ def _read(data: Mapping, text: str, source: str) -> Scene:
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
-    "lanchester_pair", "lever_balancer", "design", "verify", "gas",
+    "lanchester_pair", "lever_balancer", "design", "verify", "gas", "flywheel",
 }
 
 
@@ -230,6 +230,7 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
         sense = 1 if header["rotation"] == "counterclockwise" else -1
         shafts, levers = self.balancer_elements(data, sense, model, sampling)
         design, verify = self.requests(data, sampling.max_order)
+        flywheel = self.flywheel(data, has_gas)
         return Scene(**header, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts, levers=levers,
                      model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
-                     source=self.source, source_text=text)
+                     flywheel=flywheel, source=self.source, source_text=text)

@@ -183,6 +183,24 @@ class Gas:
         return np.pi * self.bore**2 / 4
 
 
+#: How the mean speed of a fluctuating crank is taken: over time (a tachometer's) or over the angle.
+SPEED_MEANS = ("time", "angle")
+
+
+@dataclass(frozen=True)
+class Flywheel:
+    """The [flywheel] table: the constant rotating inertia J₀ [kg m²] about
+    the crank axis (flywheel, crankshaft, damper …), the load torque [N m]
+    (None: the mean gas torque, the only one with a periodic steady state),
+    a target coefficient of speed fluctuation (None: none) and how the
+    scene's speeds are means ("time" or "angle")."""
+
+    inertia: float
+    load_torque: float | None = None
+    target_coefficient: float | None = None
+    mean: str = "time"
+
+
 @dataclass(frozen=True)
 class Cylinder:
     """One cylinder with its own throw, bank, position, geometry and masses."""
@@ -255,6 +273,8 @@ class Scene:
     #: ``harmbal verify`` checks ([verify]), if the scene says.
     design: DesignRequest | LeverDesignRequest | None = None
     verify: VerifyRequest | None = None
+    #: The crank train's rotating inertia and load, for the speed fluctuation ([flywheel]).
+    flywheel: Flywheel | None = None
     source: str = "<mapping>"
     source_text: str = ""
 

@@ -59,7 +59,11 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
           phasors over the crank radius, the per-cylinder excitation of a
           torsional-vibration model (phases include each cylinder's firing);
         * ``firing_star_angle`` (order, cylinder), ``firing_star_resultant``
-          and ``major_order`` (order): the stars of the firing angles.
+          and ``major_order`` (order): the stars of the firing angles;
+        * with a ``[flywheel]`` table, the speed fluctuation at each speed
+          (taken as the cycle's mean speed): ``omega``, ``alpha`` (angle),
+          ``fluctuation_coefficient``, ``flywheel_inertia``, ``load_torque``
+          and, for a target coefficient, ``flywheel_inertia_needed``.
     """
     kmax = scene.sampling.max_order
     revs = gas.revolutions
@@ -117,6 +121,50 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
         "firing_star_resultant": (("order",), resultant, {"units": "1", "long_name": "|Σ exp(−i k θ_fire)|"}),
         "major_order": (("order",), major, {"long_name": "all cylinders' torque harmonics in phase (major order)"}),
     }
+    if scene.flywheel is not None:
+        data.update(_speed_fluctuation(scene, unit, gas, speeds))
     attrs = attributes(scene, unit.samples_per_rev)
     attrs.update({"title": f"harmbal torque: {scene.name}", "revolutions": revs})
     return dataset(data, coords, attrs)
+
+
+def _speed_fluctuation(scene: Scene, unit: UnitLoads, gas: GasLoads, speeds: Speeds) -> dict:
+    """ω(θ), α(θ), the coefficient of speed fluctuation and, for a target, the
+    flywheel inertia needed, per speed (each a mean speed of the cycle):
+    :func:`harmbal.model.speed.periodic_speed` of the gas torque with
+    J(θ) = J₀ + 2·KE₁(θ) (the moving parts' kinetic energy at unit speed) and
+    J'(θ) = 2·d(KE₁)/dθ, exactly."""
+    from ..model.speed import flywheel_for, periodic_speed
+
+    flywheel = scene.flywheel
+    revs = gas.revolutions
+    variable = 2 * np.tile(unit.kinetic_energy.sum(axis=0), revs)
+    derivative = 2 * np.tile(unit.drive_torque.sum(axis=0), revs)
+    torque = gas.torque.sum(axis=0)
+    options = {"load_torque": flywheel.load_torque, "inertia_derivative": derivative, "mean": flywheel.mean}
+    means = np.atleast_1d(speeds.values)
+    runs = [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, **options) for w in means]
+
+    def per_speed(values):
+        values = np.asarray(values)
+        return values if speeds.several else values[0]
+
+    lead = speeds.lead
+    mean = f"{flywheel.mean} mean"
+    data = {
+        "omega": (lead + ("angle",), per_speed([r.omega for r in runs]),
+                  {"units": "rad/s", "long_name": f"crank speed over the cycle ({mean} = the scene's speed)"}),
+        "alpha": (lead + ("angle",), per_speed([r.alpha for r in runs]),
+                  {"units": "rad/s2", "long_name": "crank angular acceleration"}),
+        "fluctuation_coefficient": (lead, per_speed([r.coefficient for r in runs]), {
+            "units": "1", "long_name": "coefficient of speed fluctuation (ω_max − ω_min)/ω_mean"}),
+        "flywheel_inertia": ((), flywheel.inertia,
+                             {"units": "kg m2", "long_name": "constant rotating inertia J₀ (flywheel, crankshaft …)"}),
+        "load_torque": ((), runs[0].load_torque, {"units": "N m", "long_name": "load torque (constant)"}),
+    }
+    if flywheel.target_coefficient is not None:
+        needed = [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w, **options) for w in means]
+        data["flywheel_inertia_needed"] = (lead, per_speed(needed), {
+            "units": "kg m2", "long_name": "constant inertia J₀ that gives the target coefficient",
+            "fluctuation_target": flywheel.target_coefficient})
+    return data

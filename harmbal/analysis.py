@@ -76,6 +76,8 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         diagnostics); if it has a ``[verify]`` table, ``/verify``
         (:func:`harmbal.verify`).
     """
+    if "speed_fluctuation" in scene.model.effects:
+        return _fluctuating(scene, per_cylinder, backend)
     unit = evaluate(scene)
     gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
     moments = body_moments(unit)
@@ -91,6 +93,30 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
                                      totals=(values["force"][whole].T, values["moment"][whole].T))}
     if gas is not None:
         groups["torque"] = torque_dataset(scene, unit, gas, backend=backend)
+    return _tree(scene, groups, backend)
+
+
+def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
+    """The tree at a fluctuating crank speed: /time and /orders at that speed
+    (per speed, no ω² scaling), /stars and /torque of the constant-speed
+    evaluation (the balance of the crank train, the gas torque's orders and
+    the speed fluctuation itself)."""
+    from .views.orders import order_spectrum
+    from .views.time import fluctuating_time_dataset
+
+    if per_cylinder:
+        raise ValueError("per_cylinder is not available at a fluctuating speed (effect speed_fluctuation)")
+    time = fluctuating_time_dataset(scene, backend=backend)
+    steady = scene.with_effects(scene.model.effects - {"speed_fluctuation"})
+    unit = evaluate(steady)
+    gas = gas_loads(steady, unit.samples_per_rev)
+    return _tree(scene, {"scene": scene_dataset(scene), "time": time, "orders": order_spectrum(time, backend=backend),
+                         "stars": stars_dataset(steady, order_phasors(steady, unit=unit, backend=backend)),
+                         "torque": torque_dataset(scene, unit, gas, backend=backend)}, backend)
+
+
+def _tree(scene: Scene, groups: dict, backend: str):
+    """The analysis tree of ``groups``, with /joints and /verify if the scene asks."""
     if scene.levers:
         from .model.mechanism import joints
 

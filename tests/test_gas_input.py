@@ -64,10 +64,11 @@ def test_inline_trace_is_read_in_si(gas_scene):
 
 
 def test_default_effects_add_gas_only_with_a_gas_table(gas_scene):
-    assert hb.load_scene(gas_scene).model.effects == frozenset(EFFECTS)
+    # speed_fluctuation is off unless listed (it needs a [flywheel] too).
+    assert hb.load_scene(gas_scene).model.effects == frozenset(EFFECTS) - {"speed_fluctuation"}
     del gas_scene["gas"]
     assert "gas" not in hb.load_scene(gas_scene).model.effects
-    assert EFFECTS[-1] == "gas"
+    assert EFFECTS[-2:] == ("gas", "speed_fluctuation")
 
 
 def test_gas_table_with_effects_without_gas_is_validated_but_off(gas_scene):

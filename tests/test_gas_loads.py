@@ -255,3 +255,85 @@ def test_flywheel_needs_gas():
     del mapping["gas"]
     with pytest.raises(hb.SceneError, match="needs a \\[gas\\] table"):
         hb.load_scene(mapping)
+
+
+def test_loads_at_a_fluctuating_speed_against_finite_differences_in_time():
+    """Effect speed_fluctuation: the shaking force is −Σ m·a_G along the
+    crank's actual motion θ(t), here integrated by solve_ivp and differenced
+    twice in time (no chain rule, no harmbal kinematics)."""
+    from scipy.integrate import solve_ivp
+
+    scene = hb.load_scene(_mapping_with({
+        "model": {"effects": ["reciprocating", "rotating", "gas", "speed_fluctuation"], "rod": "two_point"},
+        "flywheel": {"inertia": "0.05 kg m^2"}}))
+    tree = hb.analyse(scene)
+    time, torque = tree["time"].ds, tree["torque"].ds
+    c = scene.cylinders[0]
+    r, l, e = c.crank_radius, c.rod_length, c.offset
+    small = c.rod.mass * c.rod.cg_from_big_end / l
+    big = c.rod.mass - small
+    theta = time.angle.values
+    gas_torque = torque.gas_torque.sum("cylinder").values
+    load = float(torque.load_torque)
+    spectrum = np.fft.rfft(gas_torque) / theta.size
+    k = np.arange(spectrum.size)
+    weights = np.where((k == 0) | (2 * k == theta.size), 1.0, 2.0)
+
+    def inertia(t):
+        _, dtravel = _pin_travel(t, r, l, e)
+        return 0.05 + (c.piston.mass + small) * dtravel**2 + big * r * r
+
+    def rhs(_, y):
+        t, w = y
+        h = 1e-6
+        dj = (inertia(t + h) - inertia(t - h)) / (2 * h)
+        gas = float(np.real(np.sum(weights * spectrum * np.exp(1j * k * t / 2))))
+        return [w, (gas - load - 0.5 * dj * w * w) / inertia(t)]
+
+    omega0 = float(time.omega[0])
+    sol = solve_ivp(rhs, (0.0, 4 * np.pi / omega0 * 1.1), [0.0, omega0], rtol=1e-12, atol=1e-12, method="DOP853",
+                    dense_output=True)
+    # The time at which the crank passes each sample angle, by root finding on the dense solution.
+    from scipy.optimize import brentq
+
+    picks = np.arange(40, theta.size, 40)  # away from t = 0, where the differences would be one-sided
+    times = []
+    guess = np.linspace(sol.t[0], sol.t[-1], 20000)
+    path = sol.sol(guess)[0]
+    for j in picks:
+        i = np.searchsorted(path, theta[j])
+        times.append(brentq(lambda t, a=theta[j]: sol.sol(t)[0] - a, guess[i - 1], guess[i]))
+    times = np.array(times)
+    h = 2e-5
+
+    def points(t):
+        angle = sol.sol(t)[0]  # bank 0, throw 0: ψ = θ; cylinder axis along +z
+        travel, _ = _pin_travel(angle, r, l, e)
+        return travel, r * np.cos(angle), r * np.sin(angle)  # pin along z; big end (z, n)
+
+    def second(f, t):
+        return (f(t + h) - 2 * f(t) + f(t - h)) / h**2
+
+    fz = np.array([-(c.piston.mass + small) * second(lambda s: points(s)[0], t) - big * second(lambda s: points(s)[1], t)
+                   for t in times])
+    fn = np.array([-big * second(lambda s: points(s)[2], t) for t in times])
+    sense = scene.sense
+    scale = float(np.abs(fz).max())
+    np.testing.assert_allclose(time.force.sel(axis="z").values[picks], fz, rtol=0, atol=2e-5 * scale)
+    # The lateral axis n points 90° ahead in the direction of rotation: engine y = −sense·n.
+    np.testing.assert_allclose(time.force.sel(axis="y").values[picks], -sense * fn, rtol=0, atol=2e-5 * scale)
+    # Over a cycle's time dH/dt and J₀·α average to zero: the block's mean roll is the load torque's
+    # reaction (weights dt = dθ/ω: the mean over time, not over the angle).
+    weight = 1 / time.omega.values
+    mean_roll = float(np.sum(time.moment.sel(axis="x").values * weight) / np.sum(weight))
+    assert mean_roll == pytest.approx(sense * -load, rel=1e-9)
+
+
+@pytest.mark.parametrize("extra, rule", [
+    ({"model": {"effects": ["reciprocating", "gas", "speed_fluctuation"]}}, "needs a \\[flywheel\\] table"),
+    ({"model": {"effects": ["reciprocating", "speed_fluctuation"]}, "flywheel": {"inertia": "1 kg m^2"}},
+     'needs the effect "gas"'),
+])
+def test_speed_fluctuation_validation(extra, rule):
+    with pytest.raises(hb.SceneError, match=rule):
+        hb.load_scene(_mapping_with(extra))

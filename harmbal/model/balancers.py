@@ -52,13 +52,18 @@ def shaft_amplitudes(shaft: Shaft, sense: int) -> tuple[np.ndarray, np.ndarray]:
     return force, moment
 
 
-def shaft_loads(shafts: tuple[Shaft, ...], theta: np.ndarray, sense: int) -> tuple[np.ndarray, np.ndarray]:
+def shaft_loads(shafts: tuple[Shaft, ...], theta: np.ndarray, sense: int,
+                tangential: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Force and moment about the origin of the shafts at unit crank speed over
-    the crank angles ``theta``, summed: arrays (axis, angle)."""
+    the crank angles ``theta``, summed: arrays (axis, angle). ``tangential``:
+    the loads per unit crank acceleration instead (a point at phase nθ has
+    d²q/dθ² = −n²·q and dq/dθ = n·i·q, so Re(P e^{inθ}) becomes Re(−i·P/n e^{inθ}))."""
     force = np.zeros((3, len(theta)))
     moment = np.zeros((3, len(theta)))
     for shaft in shafts:
         p_force, p_moment = shaft_amplitudes(shaft, sense)
+        if tangential:
+            p_force, p_moment = -1j * p_force / shaft.ratio, -1j * p_moment / shaft.ratio
         turn = np.exp(1j * shaft.ratio * theta)
         force += (p_force[:, None] * turn).real
         moment += (p_moment[:, None] * turn).real

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import loads
 from .balancers import shaft_loads
-from .kinematics import crank_pin, slider_crank
+from .kinematics import SliderCrank, crank_pin, slider_crank
 from .linkage import lever_loads
 from .sampling import body_decay_rates, choose_samples
 from ..scene import Model, Scene
@@ -120,7 +120,15 @@ def _column(values) -> np.ndarray:
     return np.asarray(values, dtype=float)[:, None]
 
 
-def planar_loads(model: Model, cylinders, psi: np.ndarray):
+def _per_unit_acceleration(kin: SliderCrank) -> SliderCrank:
+    """The kinematics with every second ψ-derivative replaced by the first:
+    loads are linear in the accelerations a = ν·ω² + μ·α, so the loads of
+    these are the loads per unit crank acceleration α at rest (ω = 0)."""
+    return SliderCrank(a=kin.a, da=kin.da, dda=kin.da, b=kin.b, db=kin.db, ddb=kin.db, e=kin.e,
+                       drod_angle=kin.drod_angle, ddrod_angle=kin.drod_angle)
+
+
+def planar_loads(model: Model, cylinders, psi: np.ndarray, tangential: bool = False):
     """Load of one cylinder's moving parts in its local plane frame at unit
     speed, summed over the scene's effects.
 
@@ -132,6 +140,9 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
         Geometry and masses, one row of ``psi`` each.
     psi : ndarray
         Local crank angles ψ [rad], shape (cylinder, angle).
+    tangential : bool
+        The loads per unit crank acceleration α (at ω = 0) instead of per
+        unit ω² (at α = 0); their roll has no drive-torque term.
 
     Returns
     -------
@@ -154,6 +165,8 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
     if effects & {"reciprocating", "rod_inertia"}:
         series = model.series_harmonics if model.piston == "series" else None
         kin = slider_crank(psi, r, l, _column([c.offset for c in cylinders]), series)
+        if tangential:
+            kin = _per_unit_acceleration(kin)
 
     planar: list[loads.PlanarLoad] = []
     if "reciprocating" in effects:
@@ -161,7 +174,9 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
             kin, _column([c.piston.mass for c in cylinders]), _column([c.piston.cg_lateral for c in cylinders]),
             small_end))
     if "rotating" in effects:
-        planar.append(loads.rotating_rod(crank_pin(psi, r)[0], big_end))
+        # rotating_rod's load is m·A (= −m·A'', A'' = −A); per unit α it is −m·A'.
+        pin, dpin, _ = crank_pin(psi, r)
+        planar.append(loads.rotating_rod((-dpin[0], -dpin[1]) if tangential else pin, big_end))
     if "rod_inertia" in effects and model.rod != "two_point":
         lateral = _column([c.rod.cg_lateral for c in cylinders])
         off_axis = model.rod == "rigid" and bool(np.any(lateral))
@@ -175,7 +190,7 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray):
     roll = sum(p.roll for p in planar) + np.zeros(shape)
     power = sum(p.power for p in planar) + np.zeros(shape)
     energy = sum(p.energy for p in planar) + np.zeros(shape)
-    if "mass_torque" in effects:
+    if "mass_torque" in effects and not tangential:
         # The drive keeps ω constant with torque T = d(KE)/dθ·ω²; the block
         # receives its reaction about the crank axis in the sense of rotation.
         roll = roll + power
@@ -225,8 +240,12 @@ PLACEMENT_FIELDS = ("label", "throw", "bank", "x", "throw_unbalances")
 TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston", "rod", "gas")
 
 
-def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
+def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bool = False) -> UnitLoads:
     """Evaluate the exact model once at ω = 1 rad/s, only the scene's effects.
+
+    With ``tangential``, the loads per unit crank acceleration α = 1 rad/s²
+    at rest instead (the part μ·α of a = ν·ω² + μ·α, for a fluctuating
+    speed); lever balancers have no such evaluation yet (ValueError).
 
     Parameters
     ----------
@@ -254,7 +273,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
     representatives, kind = cylinder_types(cyls)
     rows, row, shift = _phase_rows(throw - bank, kind, n)
     psi = theta[None, :] + np.array([f for _, f in rows])[:, None]
-    planar = planar_loads(scene.model, [representatives[t] for t, _ in rows], psi)
+    planar = planar_loads(scene.model, [representatives[t] for t, _ in rows], psi, tangential)
 
     force = np.zeros((ncyl, 3, n))
     moment = np.zeros((ncyl, 3, n))
@@ -284,11 +303,13 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
     crank_force = np.zeros((3, n))
     crank_moment = np.zeros((3, n))
     crank_peak = 0.0
+    # A static unbalance's load per unit α (−m·A') points 90° behind it, against the rotation.
+    lag = np.pi / 2 if tangential else 0.0
     if "rotating" in effects:
         owner = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
         if owner:
             ub = [u for c in cyls for u in c.throw_unbalances]
-            f, m = loads.rotating_unbalance(theta[None, :] + np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None],
+            f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None],
                                             np.array([u.unbalance for u in ub])[:, None],
                                             np.array([u.x for u in ub])[:, None], sense)
             np.add.at(force, owner, f)
@@ -296,7 +317,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
             np.add.at(peak_force, owner, [u.unbalance for u in ub])
         if scene.crankshaft_unbalances:
             ub = scene.crankshaft_unbalances
-            f, m = loads.rotating_unbalance(theta[None, :] + np.array([u.angle for u in ub])[:, None],
+            f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([u.angle for u in ub])[:, None],
                                             np.array([u.unbalance for u in ub])[:, None],
                                             np.array([u.x for u in ub])[:, None], sense)
             crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
@@ -307,13 +328,15 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None) -> UnitLoads:
     lever_force = lever_moment = None
     shaft_peak_force = shaft_peak_moment = lever_peak_force = lever_peak_moment = 0.0
     if "balancers" in effects and scene.shafts:
-        element_force, element_moment = shaft_loads(scene.shafts, theta, sense)
+        element_force, element_moment = shaft_loads(scene.shafts, theta, sense, tangential)
         for shaft in scene.shafts:
             n2 = shaft.ratio**2
             shaft_peak_force += n2 * sum(u.unbalance for u in shaft.unbalances)
             shaft_peak_moment += n2 * (abs(shaft.couple) + sum(
                 u.unbalance * float(np.linalg.norm(np.array([u.x, shaft.y, shaft.z]) - ref)) for u in shaft.unbalances))
     if "balancers" in effects and scene.levers:
+        if tangential:
+            raise ValueError("lever balancers have no loads per unit crank acceleration yet")
         lever_force, lever_moment = lever_loads(scene.levers, theta, sense, "mass_torque" in effects)
         element_force, element_moment = element_force + lever_force, element_moment + lever_moment
         lever_peak_force = float(np.linalg.norm(lever_force, axis=0).max())

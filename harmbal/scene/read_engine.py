@@ -116,6 +116,9 @@ class EngineTables:
                 effects.add(effect)
             if len(effects) != len(effects_raw):
                 self.fail("model.effects", effects_raw, "an effect is listed twice")
+            if "speed_fluctuation" in effects and "gas" not in effects:
+                self.fail("model.effects", effects_raw, 'the effect "speed_fluctuation" is driven by the gas torque: '
+                          'it needs the effect "gas"')
             if "gas" in effects and not has_gas:
                 self.fail("model.effects", effects_raw, 'the effect "gas" needs a [gas] table (bore and pressure '
                           "trace)")

@@ -231,6 +231,12 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
         shafts, levers = self.balancer_elements(data, sense, model, sampling)
         design, verify = self.requests(data, sampling.max_order)
         flywheel = self.flywheel(data, has_gas)
+        if "speed_fluctuation" in model.effects:
+            if flywheel is None:
+                self.fail("model.effects", "speed_fluctuation", "needs a [flywheel] table (its inertia J₀)")
+            if levers and "balancers" in model.effects:
+                self.fail("model.effects", "speed_fluctuation", "lever balancers have no loads at a fluctuating "
+                          "speed yet: leave out the effect or the levers")
         return Scene(**header, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts, levers=levers,
                      model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
                      flywheel=flywheel, source=self.source, source_text=text)

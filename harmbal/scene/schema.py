@@ -20,7 +20,7 @@ from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
 INERTIA_EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
 #: Every effect a scene may name; "gas" (the cylinder pressure) is on by default only in scenes with a [gas]
 #: table. New effects go at the end: attributes list effects in this order.
-EFFECTS = INERTIA_EFFECTS + ("gas",)
+EFFECTS = INERTIA_EFFECTS + ("gas", "speed_fluctuation")
 #: Crankcase pressure [Pa] when a scene gives none: one standard atmosphere.
 DEFAULT_CRANKCASE_PRESSURE = 101325.0
 INTERPOLATIONS = ("spline", "trigonometric")

@@ -47,6 +47,10 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         ``moment`` adds the reaction of the gas torque about the crank axis,
         which does not scale with ω² (see :mod:`harmbal.model.gas`).
     """
+    if "speed_fluctuation" in scene.model.effects:
+        if per_cylinder:
+            raise ValueError("per_cylinder is not available at a fluctuating speed (effect speed_fluctuation)")
+        return fluctuating_time_dataset(scene, samples_per_rev=samples_per_rev)
     unit = evaluate(scene, samples_per_rev)
     gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
     return time_dataset(scene, unit, per_cylinder=per_cylinder, gas=gas)
@@ -148,6 +152,66 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
     attrs = attributes(scene, unit.samples_per_rev)
     if gas is not None:
         attrs["revolutions"] = revs
+    return dataset(data, coords, attrs)
+
+
+def fluctuating_time_dataset(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy"):
+    """The time-domain Dataset at a fluctuating crank speed (effect
+    ``speed_fluctuation``): each speed is the mean of ω(θ) over the cycle
+    (:mod:`harmbal.model.fluctuation`); the values are multiplied out per
+    speed (no ω² scaling holds). The load scales and aliasing estimates
+    bound those of the parts ω²·L_ν and α·L_μ at the largest ω² and |α|."""
+    from ..model.fluctuation import crank_speeds, fluctuating_loads
+
+    # No drive holds the speed: the roll carries the load torque's reaction instead of the drive's.
+    base = scene.with_effects(scene.model.effects - {"mass_torque"})
+    unit = evaluate(base, samples_per_rev)
+    per_alpha = evaluate(base, unit.samples_per_rev, tangential=True)
+    gas = gas_loads(scene, unit.samples_per_rev)
+    runs = crank_speeds(scene, unit, gas)
+    force, moment = fluctuating_loads(scene, unit, per_alpha, runs, gas.revolutions)
+    w2 = np.array([r.omega.max() ** 2 for r in runs])
+    alpha = np.array([np.abs(r.alpha).max() for r in runs])
+    reaction = np.array([scene.flywheel.inertia * a + abs(r.load_torque) for r, a in zip(runs, alpha)])
+    alias_nu, alias_mu = body_aliasing(unit, backend), body_aliasing(per_alpha, backend)
+    gas_alias = gas_aliasing(gas, scene.sampling.max_order, backend)
+    scales = {
+        "force_scale": w2 * unit.force_scale + alpha * per_alpha.force_scale,
+        "moment_scale": w2 * unit.moment_scale + alpha * per_alpha.moment_scale + reaction + gas.moment_scale,
+        "aliasing_error_force": np.multiply.outer(w2, alias_nu[0]) + np.multiply.outer(alpha, alias_mu[0]),
+        "aliasing_error_moment": (np.multiply.outer(w2, alias_nu[1]) + np.multiply.outer(alpha, alias_mu[1])
+                                  + gas_alias),
+    }
+    speeds = Speeds(scene.speeds)
+
+    def per_speed(values):
+        return values if speeds.several else values[0]
+
+    coords = speeds.coords()
+    coords.update({
+        "angle": ("angle", gas.theta, {"units": "rad", "long_name": "crank angle θ",
+                                       "description": "angle of throw 1 from +z, in the direction of rotation"}),
+        "axis": ("axis", list(AXES), {"long_name": "engine axis"}),
+    })
+    lead = speeds.lead
+    data = {
+        "force": (lead + ("axis", "angle"), per_speed(force),
+                  {"units": "N", "long_name": "shaking force on the block at the fluctuating speed"}),
+        "moment": (lead + ("axis", "angle"), per_speed(moment), {
+            "units": "N m", "long_name": "shaking moment on the block about the reference point at the fluctuating speed"}),
+        "force_scale": (lead, per_speed(scales["force_scale"]),
+                        {"units": "N", "long_name": "bound on the sum of single-body peak forces"}),
+        "moment_scale": (lead, per_speed(scales["moment_scale"]),
+                         {"units": "N m", "long_name": "bound on the sum of single-body peak moments"}),
+        "aliasing_error_force": (lead + ("axis",), per_speed(scales["aliasing_error_force"]), {
+            "units": "N", "long_name": "estimated aliasing error of the force phasors, body by body"}),
+        "aliasing_error_moment": (lead + ("axis",), per_speed(scales["aliasing_error_moment"]), {
+            "units": "N m", "long_name": "estimated aliasing error of the moment phasors, body by body"}),
+        "omega": (lead + ("angle",), per_speed(np.array([r.omega for r in runs])),
+                  {"units": "rad/s", "long_name": "crank speed over the cycle"}),
+    }
+    attrs = attributes(scene, unit.samples_per_rev)
+    attrs.update({"revolutions": gas.revolutions, "speed_mean": scene.flywheel.mean})
     return dataset(data, coords, attrs)
 
 

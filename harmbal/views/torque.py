@@ -130,20 +130,11 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
 
 def _speed_fluctuation(scene: Scene, unit: UnitLoads, gas: GasLoads, speeds: Speeds) -> dict:
     """ω(θ), α(θ), the coefficient of speed fluctuation and, for a target, the
-    flywheel inertia needed, per speed (each a mean speed of the cycle):
-    :func:`harmbal.model.speed.periodic_speed` of the gas torque with
-    J(θ) = J₀ + 2·KE₁(θ) (the moving parts' kinetic energy at unit speed) and
-    J'(θ) = 2·d(KE₁)/dθ, exactly."""
-    from ..model.speed import flywheel_for, periodic_speed
+    flywheel inertia needed, per speed (:mod:`harmbal.model.fluctuation`)."""
+    from ..model.fluctuation import crank_speeds, flywheels_needed
 
     flywheel = scene.flywheel
-    revs = gas.revolutions
-    variable = 2 * np.tile(unit.kinetic_energy.sum(axis=0), revs)
-    derivative = 2 * np.tile(unit.drive_torque.sum(axis=0), revs)
-    torque = gas.torque.sum(axis=0)
-    options = {"load_torque": flywheel.load_torque, "inertia_derivative": derivative, "mean": flywheel.mean}
-    means = np.atleast_1d(speeds.values)
-    runs = [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, **options) for w in means]
+    runs = crank_speeds(scene, unit, gas)
 
     def per_speed(values):
         values = np.asarray(values)
@@ -163,8 +154,7 @@ def _speed_fluctuation(scene: Scene, unit: UnitLoads, gas: GasLoads, speeds: Spe
         "load_torque": ((), runs[0].load_torque, {"units": "N m", "long_name": "load torque (constant)"}),
     }
     if flywheel.target_coefficient is not None:
-        needed = [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w, **options) for w in means]
-        data["flywheel_inertia_needed"] = (lead, per_speed(needed), {
+        data["flywheel_inertia_needed"] = (lead, per_speed(flywheels_needed(scene, unit, gas)), {
             "units": "kg m2", "long_name": "constant inertia J₀ that gives the target coefficient",
             "fluctuation_target": flywheel.target_coefficient})
     return data

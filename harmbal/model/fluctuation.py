@@ -1,0 +1,69 @@
+"""The crank's speed over the cycle when it fluctuates: the periodic solution
+of :mod:`harmbal.model.speed` for an engine's gas torque and crank train, and
+the loads on the block at that fluctuating speed.
+
+At a fluctuating speed every acceleration is a = ν·ω² + μ·α, so the loads
+are L(θ) = ω(θ)²·L_ν(θ) + α(θ)·L_μ(θ): the unit-speed evaluation and the
+evaluation per unit crank acceleration (:func:`harmbal.model.evaluate.evaluate`
+with ``tangential``). About the crank axis the block receives −dH/dt of the
+moving parts (their roll loads, without the constant-speed drive torque),
+−J₀·α of the constant rotating inertia and the reaction −T_L of the load
+torque, which lies outside the block; the gas forces on head and piston
+cancel on it (see docs/speed.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .evaluate import UnitLoads
+from .gas import GasLoads
+from .speed import SpeedFluctuation, flywheel_for, periodic_speed
+from ..scene import Scene
+
+
+def crank_inertia(unit: UnitLoads, revolutions: int) -> tuple[np.ndarray, np.ndarray]:
+    """J_var(θ) = 2·KE₁(θ) of the moving parts and its derivative 2·d(KE₁)/dθ
+    over the cycle (``unit`` at rest of its mass torque or not: neither
+    depends on it)."""
+    return (2 * np.tile(unit.kinetic_energy.sum(axis=0), revolutions),
+            2 * np.tile(unit.drive_torque.sum(axis=0), revolutions))
+
+
+def crank_speeds(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[SpeedFluctuation]:
+    """The periodic speed over the cycle at each of the scene's speeds (each
+    the mean speed, in the sense of ``[flywheel] mean``)."""
+    flywheel = scene.flywheel
+    variable, derivative = crank_inertia(unit, gas.revolutions)
+    torque = gas.torque.sum(axis=0)
+    return [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, load_torque=flywheel.load_torque,
+                           inertia_derivative=derivative, mean=flywheel.mean)
+            for w in np.atleast_1d(scene.speeds)]
+
+
+def flywheels_needed(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[float]:
+    """The constant inertia J₀ that gives ``[flywheel] target_coefficient`` at each speed."""
+    flywheel = scene.flywheel
+    variable, derivative = crank_inertia(unit, gas.revolutions)
+    torque = gas.torque.sum(axis=0)
+    return [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w,
+                         load_torque=flywheel.load_torque, inertia_derivative=derivative, mean=flywheel.mean)
+            for w in np.atleast_1d(scene.speeds)]
+
+
+def fluctuating_loads(scene: Scene, unit: UnitLoads, per_alpha: UnitLoads, runs: list[SpeedFluctuation],
+                      revolutions: int) -> tuple[np.ndarray, np.ndarray]:
+    """Force and moment about the reference point on the block at each run's
+    fluctuating speed, shape (speed, axis, angle) over the cycle.
+
+    ``unit`` and ``per_alpha`` are the evaluations per ω² and per α of the
+    scene without its constant-speed drive torque (``mass_torque``)."""
+    f_nu, m_nu = (np.tile(a, revolutions) for a in unit.total())
+    f_mu, m_mu = (np.tile(a, revolutions) for a in per_alpha.total())
+    omega2 = np.array([r.omega**2 for r in runs])[:, None, :]
+    alpha = np.array([r.alpha for r in runs])[:, None, :]
+    force = omega2 * f_nu + alpha * f_mu
+    moment = omega2 * m_nu + alpha * m_mu
+    reaction = np.array([-scene.flywheel.inertia * r.alpha - r.load_torque for r in runs])
+    moment[:, 0] += scene.sense * reaction
+    return force, moment

@@ -337,3 +337,26 @@ def test_loads_at_a_fluctuating_speed_against_finite_differences_in_time():
 def test_speed_fluctuation_validation(extra, rule):
     with pytest.raises(hb.SceneError, match=rule):
         hb.load_scene(_mapping_with(extra))
+
+
+def test_torsional_excitation_rebuilds_each_cylinders_torque():
+    """The exported phasors are the excitation T_i(θ) = Σ_k Re(C_ik e^{ikθ}) of
+    each throw: summed back over the orders kept they give the cylinder's gas
+    − mass torque (whose higher orders are small at this max_order)."""
+    from harmbal.model.evaluate import evaluate
+
+    scene = _scene(INLINE_4, firing_order=[1, 3, 4, 2])
+    torque = hb.analyse(scene)["torque"].ds
+    unit = evaluate(scene)
+    w2 = float(torque.speed) ** 2
+    theta = torque.angle.values
+    expected = torque.gas_torque.values - w2 * np.tile(unit.drive_torque, 2)
+    orders = torque.order.values
+    rebuilt = np.real(torque.cylinder_torque_order.values @ np.exp(1j * np.multiply.outer(orders, theta)))
+    # Orders above max_order = 8 are left out: compare with the trace low-passed the same way.
+    spectrum = np.fft.rfft(expected, axis=-1) / theta.size
+    spectrum[:, 1:] *= 2
+    low = np.real(spectrum[:, : orders.size] @ np.exp(1j * np.multiply.outer(orders, theta)))
+    np.testing.assert_allclose(rebuilt, low, rtol=0, atol=1e-9 * np.abs(expected).max())
+    np.testing.assert_allclose(torque.tangential_force_order.values,
+                               torque.cylinder_torque_order.values / scene.cylinders[0].crank_radius, rtol=1e-14)

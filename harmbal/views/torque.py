@@ -55,9 +55,11 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
           complex phasors C_k, T(θ) = Σ Re(C_k e^{ikθ}); ``mean_torque``
           (the order-0 term) and ``imep`` per cylinder [Pa] = work per cycle /
           swept volume;
-        * ``tangential_force_order`` (cylinder, order) [N]: the gas torque
-          phasors over the crank radius, the per-cylinder excitation of a
-          torsional-vibration model (phases include each cylinder's firing);
+        * ``cylinder_torque_order`` ([speed,] cylinder, order) [N m]: each
+          cylinder's torque on the crank (gas − mass torque), the excitation
+          of its throw in a torsional-vibration model (phases include each
+          cylinder's firing; see docs/torsional.md), and
+          ``tangential_force_order`` [N], the same over the crank radius;
         * ``firing_star_angle`` (order, cylinder), ``firing_star_resultant``
           and ``major_order`` (order): the stars of the firing angles;
         * with a ``[flywheel]`` table, the speed fluctuation at each speed
@@ -78,6 +80,9 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     mass_spectrum = np.zeros(count, dtype=complex)
     mass_spectrum[::revs] = phasors(unit.drive_torque.sum(axis=0), backend)[: kmax + 1]
     gas_total = gas_spectrum.sum(axis=0)
+    # Each cylinder's mass torque over the cycle: whole orders only.
+    mass_cylinder = np.zeros((len(scene.cylinders), count), dtype=complex)
+    mass_cylinder[:, ::revs] = phasors(unit.drive_torque, backend)[:, : kmax + 1]
     work = 2 * np.pi * revs * gas_spectrum[:, 0].real  # ∫T dθ over the cycle = ∮(p − p_crankcase) dV
     imep = np.divide(work, gas.swept_volume, out=np.full_like(work, np.nan), where=gas.swept_volume > 0)
     arms, resultant = firing_stars(gas.firing_angle, order)
@@ -113,9 +118,14 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
                                        "description": "work per cycle / swept volume"}),
         "swept_volume": (("cylinder",), gas.swept_volume, {"units": "m3", "long_name": "swept volume"}),
         "firing_angle": (("cylinder",), gas.firing_angle, {"units": "rad", "long_name": "crank angle θ of firing TDC"}),
-        "tangential_force_order": (("cylinder", "order"), gas_spectrum / crank_radius[:, None], {
-            "units": "N", "long_name": "order phasor of the gas tangential force at the crank pin (torque / radius)",
-            "description": phasor}),
+        "cylinder_torque_order": speeds.variable(("cylinder", "order"), -mass_cylinder, {
+            "units": "N m", "long_name": "order phasor of one cylinder's torque on the crank (gas − mass torque)",
+            "description": phasor + "; the excitation of its crank throw in a torsional model"},
+            constant=gas_spectrum),
+        "tangential_force_order": speeds.variable(("cylinder", "order"), -mass_cylinder / crank_radius[:, None], {
+            "units": "N", "long_name": "order phasor of one cylinder's tangential force at the crank pin "
+                                       "(its torque / crank radius)", "description": phasor},
+            constant=gas_spectrum / crank_radius[:, None]),
         "firing_star_angle": (("order", "cylinder"), arms,
                               {"units": "rad", "long_name": "firing star arm k·θ_fire mod 2π"}),
         "firing_star_resultant": (("order",), resultant, {"units": "1", "long_name": "|Σ exp(−i k θ_fire)|"}),

@@ -62,9 +62,9 @@ def browser():
         instance.close()
 
 
-@pytest.fixture(scope="module", params=["inline-3-balanced", "lever-single"])
+@pytest.fixture(scope="module", params=["inline-3-balanced", "lever-single", "tractor-3cyl-gas"])
 def report_file(request, tmp_path_factory):
-    """A report with balancers and verification, and one with a lever balancer."""
+    """A report with balancers and verification, one with a lever balancer, one with gas and a flywheel."""
     path = tmp_path_factory.mktemp("report") / f"{request.param}.html"
     hb.report(hb.analyse(hb.load_scene(ENGINES / f"{request.param}.toml")), path)
     return path

@@ -34,6 +34,9 @@ class GasLoads:
     * ``force`` (cylinder, M) [N]: (p − p_crankcase)·A on the piston, towards the crank;
     * ``torque`` (cylinder, M) [N m]: on the crankshaft, in the direction of rotation;
     * ``firing_angle`` (cylinder,) [rad]: θ of each cylinder's firing TDC;
+    * ``volume`` (cylinder, M) [m³]: displaced volume above TDC, A·(c_TDC − c_B(θ)),
+      from 0 at TDC to the swept volume at BDC (the clearance volume is not
+      known from a measured trace, so it is left out);
     * ``swept_volume`` (cylinder,) [m³]: piston area × stroke (0 without gas).
     """
 
@@ -44,6 +47,7 @@ class GasLoads:
     force: np.ndarray
     torque: np.ndarray
     firing_angle: np.ndarray
+    volume: np.ndarray
     swept_volume: np.ndarray
 
     @property
@@ -88,6 +92,7 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     pressure = np.zeros((len(cyls), m))
     force = np.zeros((len(cyls), m))
     torque = np.zeros((len(cyls), m))
+    volume = np.zeros((len(cyls), m))
     swept = np.zeros(len(cyls))
     series = scene.model.series_harmonics if scene.model.piston == "series" else None
     for i, c in enumerate(cyls):
@@ -99,9 +104,11 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
                                         theta - firing_angle[i])
         force[i] = (pressure[i] - gas.crankcase_pressure) * gas.piston_area
         torque[i] = -force[i] * kin.db
-        # Stroke of the offset slider-crank: the pin's extremes, with rod and crank in line.
+        # The pin's extremes of the offset slider-crank, with rod and crank in line.
         e = c.offset
-        stroke = np.sqrt((c.rod_length + c.crank_radius) ** 2 - e * e) - np.sqrt((c.rod_length - c.crank_radius) ** 2 - e * e)
-        swept[i] = gas.piston_area * stroke
+        top = np.sqrt((c.rod_length + c.crank_radius) ** 2 - e * e)
+        bottom = np.sqrt((c.rod_length - c.crank_radius) ** 2 - e * e)
+        volume[i] = gas.piston_area * (top - kin.b)
+        swept[i] = gas.piston_area * (top - bottom)
     return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
-                    torque=torque, firing_angle=firing_angle, swept_volume=swept)
+                    torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept)

@@ -145,6 +145,7 @@ def _spectrum(page: _Page, tree, log: bool) -> None:
 
     orders = _first_speed(tree["orders"].ds)
     rtol = float(orders.attrs.get("balanced_rtol", 1e-10))
+    half = tree["time"].ds.attrs.get("revolutions", 1) > 1
     page.add('<section id="spectrum"><h2>Order spectrum</h2>')
     page.figure(order_spectrum_figure(tree["orders"].ds, log=log),
                 f"Free force and moment per order and axis, and their co- and counter-rotating parts"
@@ -152,15 +153,20 @@ def _spectrum(page: _Page, tree, log: bool) -> None:
     for name, units in (("force", "N"), ("moment", "N m")):
         scale = float(orders[f"{name}_scale"])
         rows = []
-        for k in orders["order"].values[1:]:
-            row = [int(k)]
-            for value in list(orders[name].values[k]) + list(orders[f"{name}_rotating"].values[k]):
+        for i, k in enumerate(orders["order"].values):
+            if i == 0:
+                continue
+            row = [f"{k:g}"]
+            for value in list(orders[name].values[i]) + list(orders[f"{name}_rotating"].values[i]):
                 row += _phasor(complex(value), scale, rtol)
             rows.append(row)
         header = ["order"] + [f"{c} {part}" for c in ("x", "y", "z", "co", "counter") for part in ("amplitude", "phase")]
         page.add(f"<h3>Free {name} [{units}]</h3>" + _table(header, rows, 0))
     page.add('<p class="note">Amplitudes are peak values of Re(C·e^{ikθ}); phases at θ = 0. Components within '
-             f"{rtol:g} of the single-body load scale are balanced and shown as 0.</p></section>")
+             f"{rtol:g} of the single-body load scale are balanced and shown as 0."
+             + (" Orders are per crank revolution: over the four-stroke cycle of two revolutions they run in halves;"
+                " the inertial loads have whole orders only and the gas adds only the roll moment M_x (at whole and"
+                " half orders)." if half else "") + "</p></section>")
 
 
 def _stars(page: _Page, tree) -> None:
@@ -183,7 +189,9 @@ def _traces(page: _Page, scene, tree) -> None:
     before = None
     if (scene.shafts or scene.levers) and "balancers" in scene.model.effects:
         before = simulate(scene.with_effects(scene.model.effects - {"balancers"}), samples_per_rev=samples)
-    page.add('<section id="time"><h2>Over one revolution</h2>')
+    revolutions = int(after.attrs.get("revolutions", 1))
+    heading = "Over one revolution" if revolutions == 1 else f"Over the working cycle ({revolutions} revolutions)"
+    page.add(f'<section id="time"><h2>{heading}</h2>')
     if before is None:
         page.figure(time_traces_figure(after), "Shaking force and moment per axis over the crank angle.", "traces")
         page.figure(locus_figure(after), "Locus of the transverse force and moment over the revolution.", "locus")
@@ -252,6 +260,116 @@ def _lever(page: _Page, tree) -> None:
     page.add("</section>")
 
 
+def _distinct_cylinders(scene) -> list[str]:
+    """The first cylinder of each group with the same pressure trace and
+    slider-crank: the others' pressure is the same curve shifted to their
+    firing TDC, so drawing it again adds nothing."""
+    seen, labels = set(), []
+    for c in scene.cylinders:
+        key = (c.gas, c.crank_radius, c.rod_length, c.offset)
+        if key not in seen:
+            seen.add(key)
+            labels.append(c.label)
+    return labels
+
+
+def _shown_speeds(rpm) -> tuple[list[int], str]:
+    """Indices of the speeds given a row in the per-speed tables, and a note
+    naming those left out: a sweep longer than the CLI prints shows its
+    lowest and highest speed only (every speed is in the Datasets)."""
+    from .tables import PRINTED_SPEEDS
+
+    rpm = np.atleast_1d(rpm)
+    if rpm.size <= PRINTED_SPEEDS:
+        return list(range(rpm.size)), ""
+    return [int(np.argmin(rpm)), int(np.argmax(rpm))], (
+        f'<p class="note">{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the lowest and the highest '
+        "are shown; every speed is in the Datasets.</p>")
+
+
+def _torque(page: _Page, scene, tree) -> None:
+    from ..orders.spectrum import BALANCED_RTOL
+    from .plots import (pressure_figure, speed_fluctuation_figure, torque_figure, torque_scale,
+                        torque_spectrum_figure)
+
+    if "torque" not in tree.children:
+        return
+    torque = tree["torque"].ds
+    at = _first_speed(torque)
+    rpm = float(at["rpm"])
+    span = 360 * int(torque.attrs.get("revolutions", 1))
+    page.add('<section id="torque"><h2>Torque</h2><h3>Cylinder pressure and indicated work</h3>')
+
+    drawn = _distinct_cylinders(scene)
+    if len(scene.cylinders) == 1:
+        which = ""
+    elif len(drawn) == 1:
+        which = f" of cylinder {drawn[0]} (every cylinder has the same trace, shifted to its firing TDC)"
+    else:
+        which = f" of cylinders {', '.join(drawn)} (the others repeat one of these, shifted to their firing TDC)"
+    page.figure(pressure_figure(torque, cylinders=drawn), f"Cylinder pressure (absolute){which} over the "
+                "crank angle θ of throw 1, and the p–V diagram against the displaced volume above TDC.", "pressure")
+    rows = [[str(label), f"{math.degrees(float(fire)) % span:.1f}°", f"{float(volume) * 1e6:.5g} cm³",
+             f"{float(imep) / 1e5:.4g} bar"]
+            for label, fire, volume, imep in zip(torque["cylinder"].values, torque["firing_angle"].values,
+                                                 torque["swept_volume"].values, torque["imep"].values)]
+    page.add(_table(["cylinder", "firing TDC at θ", "swept volume", "IMEP"], rows, 1))
+    mean = float(torque["mean_torque"])
+    rpms, speeds = np.atleast_1d(torque["rpm"].values), np.atleast_1d(torque["speed"].values)
+    shown, note = _shown_speeds(rpms)
+    rows = [["mean torque", f"{mean:.5g} N m"]]
+    rows += [[f"indicated power at {rpms[i]:.6g} rpm", f"{mean * speeds[i] / 1e3:.4g} kW"] for i in shown]
+    page.add(_table(["quantity", "value"], rows, 1) + note)
+
+    page.add("<h3>Torque over the working cycle</h3>")
+    page.figure(torque_figure(torque), f"Torque on the crankshaft in the direction of rotation over the working "
+                f"cycle at {rpm:.6g} rpm (constant speed): the gas torque of all cylinders, the mass torque the "
+                "moving parts take from the crank, the torque the crank delivers (gas − mass) and its mean.",
+                "torque")
+    page.add(f"<h3>Torque orders at {rpm:.6g} rpm</h3>")
+    page.figure(torque_spectrum_figure(torque), f"Orders of the delivered and of the gas torque at {rpm:.6g} rpm "
+                "(peak amplitudes); major orders shaded.", "torque-spectrum")
+    scale = torque_scale(torque)
+    gas = torque["gas_torque_order"].sum("cylinder").values
+    total = at["torque_order"].values
+    rows = []
+    for i, (k, major) in enumerate(zip(torque["order"].values, torque["major_order"].values)):
+        if i == 0:
+            continue
+        rows.append([f"{k:g}", "major" if major else "", *_phasor(complex(total[i]), scale, BALANCED_RTOL),
+                     *_phasor(complex(gas[i]), scale, BALANCED_RTOL)])
+    page.add(_table(["order", "major", "delivered amplitude [N m]", "delivered phase", "gas amplitude [N m]",
+                     "gas phase"], rows, 2)
+             + f'<p class="note">T(θ) = Σ Re(C_k·e^{{ikθ}}) with k in {"half " if span > 360 else ""}orders of the '
+             "crank speed: amplitudes are peak values, phases at θ = 0 (throw 1 along +z). A major order is one where every cylinder's gas "
+             f"harmonic is in phase. Components within {BALANCED_RTOL:g} of the largest order amplitude cancel "
+             "and are shown as 0.</p>")
+    if "omega" in torque:
+        page.add("<h3>Speed fluctuation</h3>")
+        page.figure(speed_fluctuation_figure(torque), f"Crank speed over the working cycle at a mean of "
+                    f"{rpm:.6g} rpm, driven by the gas torque against a constant load with the rotating inertia "
+                    "of the flywheel and the moving parts.", "speed-fluctuation")
+        rows = [["constant inertia J₀ (flywheel, crankshaft …)", f"{float(torque['flywheel_inertia']):.5g} kg m²"]]
+        if "load_torque" in torque:
+            rows.append(["load torque", f"{float(torque['load_torque']):.5g} N m"])
+        needed = torque.get("flywheel_inertia_needed")
+        if needed is not None:
+            rows.append(["target coefficient δ", f"{float(needed.attrs['fluctuation_target']):.4g}"])
+        page.add(_table(["quantity", "value"], rows, 1))
+        header = ["speed", "coefficient δ = (ω_max − ω_min)/ω_mean"]
+        if needed is not None:
+            header.append("J₀ needed for the target")
+        delta = np.atleast_1d(torque["fluctuation_coefficient"].values)
+        rows = []
+        for i in shown:
+            row = [f"{rpms[i]:.6g} rpm", f"{delta[i]:.4g}"]
+            if needed is not None:
+                row.append(f"{np.atleast_1d(needed.values)[i]:.5g} kg m²")
+            rows.append(row)
+        page.add(_table(header, rows, 1) + note)
+    page.add("</section>")
+
+
 def _provenance(page: _Page, scene, source: str) -> None:
     page.add('<section id="provenance"><h2>Provenance</h2>'
              f"<p>Made by harmbal {_e(__version__)} from <code>{_e(source)}</code>. To reproduce:</p>"
@@ -294,6 +412,7 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     _traces(page, scene, tree)
     _balancers(page, scene, tree)
     _lever(page, tree)
+    _torque(page, scene, tree)
     _provenance(page, scene, source or scene.source)
     title = f"harmbal report: {scene.name}"
     text = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

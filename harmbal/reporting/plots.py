@@ -1,6 +1,8 @@
 """Figures: crank stars and phasor diagrams of the free forces and moments,
 order spectra, time traces and loci of the shaking loads, the phasing of the
-balancer elements and the joint forces of a lever balancer.
+balancer elements, the joint forces of a lever balancer and, with gas, the
+cylinder pressure, the torque over the cycle, its orders and the speed
+fluctuation.
 
 Every diagram is drawn in the plane normal to the crank axis, oriented like
 the transverse vector w = v_z + i·v_t of :doc:`conventions`: +z points up and
@@ -71,13 +73,19 @@ RUN_COLOURS = {"before": "blue", "after": "vermillion"}
 RUN_STYLES = {"before": "-", "after": "--"}
 RUN_WIDTHS = {"before": 1.8, "after": 1.2}
 
+#: Colours of the torques over the cycle and of their order bars.
+TORQUE_COLOURS = {"gas": "vermillion", "mass": "sky_blue", "delivered": "blue", "mean": "black"}
+
 #: Colours for series without a fixed meaning (joints, levers, balancer
 #: elements), cycled; yellow is left out, it is hard to see on white.
 SERIES_COLOURS = ("blue", "vermillion", "bluish_green", "orange", "reddish_purple", "sky_blue", "black")
 SERIES_STYLES = ("-", "--", ":", "-.")
 
-#: Ticks of crank-angle axes [deg].
-ANGLE_TICKS = (0, 90, 180, 270, 360)
+#: Step of the ticks of crank-angle axes [deg], over a revolution or a working cycle.
+ANGLE_TICK_STEP = 90
+
+#: Order axes with more orders than this label the whole orders only (half orders get minor ticks).
+MAX_ORDER_LABELS = 16
 
 #: File types :func:`save_figure` writes.
 FIGURE_FORMATS = ("svg", "png")
@@ -568,19 +576,51 @@ def _runs(time: xr.Dataset, after: xr.Dataset | None, speed: int) -> tuple[dict[
     return runs, rpm
 
 
-def _closed(angle, values) -> tuple[np.ndarray, np.ndarray]:
+def _span(ds: xr.Dataset) -> float:
+    """The crank angle [deg] that ``ds``'s angle axis spans: one revolution,
+    or the working cycle with gas (attribute ``revolutions``, 720° for a
+    four-stroke)."""
+    return 360.0 * int(ds.attrs.get("revolutions", 1))
+
+
+def _closed(angle, values, span: float = 360.0) -> tuple[np.ndarray, np.ndarray]:
     """Crank angles in degrees and ``values`` (angle last) over one closed
-    revolution: the first sample repeated at 360°."""
+    period: the first sample repeated at ``span`` degrees."""
     values = np.asarray(values)
-    return np.append(np.degrees(np.asarray(angle, dtype=float)), 360.0), np.concatenate(
+    return np.append(np.degrees(np.asarray(angle, dtype=float)), span), np.concatenate(
         [values, values[..., :1]], axis=-1)
 
 
-def _angle_axis(ax: Axes) -> None:
-    """A crank-angle x axis from 0 to 360° in steps of 90°."""
-    ax.set_xlim(0, 360)
-    ax.set_xticks(ANGLE_TICKS)
+def _angle_axis(ax: Axes, span: float = 360.0) -> None:
+    """A crank-angle x axis from 0 to ``span`` degrees in steps of 90°."""
+    ax.set_xlim(0, span)
+    ax.set_xticks(np.arange(0, span + 1, ANGLE_TICK_STEP))
     ax.set_xlabel("crank angle θ [deg]", fontsize=8)
+
+
+def _order_label(order: float) -> str:
+    """An order as printed: ``2``, ``1.5``."""
+    return f"{order:g}"
+
+
+def _order_axis(ax: Axes, order, max_labels: int = MAX_ORDER_LABELS) -> None:
+    """Ticks at every order of ``order`` (whole or half orders), labelled
+    ``1.5`` rather than ``1.50``; with more than ``max_labels`` orders only
+    the whole ones are labelled and the others get minor ticks, so the labels
+    never run into each other."""
+    order = np.asarray(order, dtype=float)
+    labelled = order if order.size <= max_labels else order[order == np.round(order)]
+    ax.set_xticks(labelled, [_order_label(k) for k in labelled])
+    ax.set_xticks(np.setdiff1d(order, labelled), minor=True)
+    step = float(np.min(np.diff(order))) if order.size > 1 else 1.0
+    ax.set_xlim(order[0] - 0.6 * step, order[-1] + 0.6 * step)
+    ax.set_xlabel("order k [cycles/rev]", fontsize=8)
+
+
+def _period_name(ds: xr.Dataset) -> str:
+    """What ``ds``'s angle axis spans, in words."""
+    revolutions = int(ds.attrs.get("revolutions", 1))
+    return "one revolution" if revolutions == 1 else f"the working cycle ({revolutions} revolutions)"
 
 
 def _note(ax: Axes, text: str) -> None:
@@ -600,29 +640,29 @@ def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], la
     """Grouped bars of |phasor| per order, one bar per entry of ``dim``.
 
     Components balanced at ``rtol`` × ``scale`` are drawn as bars of height 0,
-    or not at all on a log scale. Each bar has gid ``<gid>-<entry>-order<k>``.
+    or not at all on a log scale. The orders may be whole or half orders (a
+    four-stroke cycle with gas). Each bar has gid ``<gid>-<entry>-order<k>``,
+    k printed as ``2`` or ``1.5``.
     """
     from matplotlib.patches import Patch
 
-    order = np.asarray(phasors["order"].values, dtype=int)
+    order = np.asarray(phasors["order"].values, dtype=float)
     amplitude = np.abs(phasors.transpose("order", dim).values)
     heights = np.where(is_balanced(amplitude, scale, rtol), 0.0, amplitude)
     entries = [str(e) for e in phasors[dim].values]
-    width = 0.8 / len(entries)
+    width = 0.8 * (float(np.min(np.diff(order))) if order.size > 1 else 1.0) / len(entries)
     for j, entry in enumerate(entries):
         keep = heights[:, j] > 0 if log else np.ones(len(order), dtype=bool)
         bars = ax.bar(order[keep] + (j - (len(entries) - 1) / 2) * width, heights[keep, j], width,
                       color=_colour(colours[entry]), log=log)
         for bar, k in zip(bars, order[keep]):
-            bar.set_gid(f"{gid}-{entry}-order{k}")
+            bar.set_gid(f"{gid}-{entry}-order{_order_label(k)}")
     if not heights.any():
         _note(ax, "all components balanced")
     elif log:  # at least three decades, so that nearly equal bars do not fill a sliver of a decade
         top = heights.max()
         ax.set_ylim(min(heights[heights > 0].min(), 1e-3 * top) / 2, 2 * top)
-    ax.set_xticks(order)
-    ax.set_xlim(order[0] - 0.6, order[-1] + 0.6)
-    ax.set_xlabel("order k [cycles/rev]", fontsize=8)
+    _order_axis(ax, order)
     ax.tick_params(labelsize=7)
     ax.legend(handles=[Patch(color=_colour(colours[e]), label=labels[e]) for e in entries], fontsize=7,
               frameon=False)
@@ -655,7 +695,9 @@ def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: i
     matplotlib.figure.Figure
         Four axes (force per axis, force rotating, moment per axis, moment
         rotating). Each bar is a ``Rectangle`` with gid
-        ``<quantity>-<axis or rotation>-order<k>``, its height in N or N m.
+        ``<quantity>-<axis or rotation>-order<k>`` (k as ``2`` or, for the
+        half orders of a four-stroke with gas, ``1.5``), its height in N or
+        N m.
     """
     from matplotlib.figure import Figure
 
@@ -686,7 +728,8 @@ def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: i
 
 
 def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0) -> Figure:
-    """The shaking force and moment over one crank revolution.
+    """The shaking force and moment over one crank revolution, or over the
+    working cycle with gas (two revolutions for a four-stroke, 0–720°).
 
     Parameters
     ----------
@@ -703,8 +746,8 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
     matplotlib.figure.Figure
         Two axes: force [N] (top) and moment [N m] (bottom) against the crank
         angle [deg], one colour per engine axis. Each trace is a ``Line2D``
-        with gid ``<quantity>-<axis>-<before|after>`` closed at 360° (the
-        first sample repeated).
+        with gid ``<quantity>-<axis>-<before|after>`` closed at the end of
+        the period, 360° or 720° (the first sample repeated).
 
     Raises
     ------
@@ -715,12 +758,13 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
     from matplotlib.lines import Line2D
 
     runs, rpm = _runs(time, after, speed)
+    span = _span(time)
     fig = Figure(figsize=(9.0, 6.5), layout="constrained")
     axes = fig.subplots(2, 1)
     for ax, quantity in zip(axes, ("force", "moment")):
         name, symbol, unit = _QUANTITIES[quantity]
         for run, ds in runs.items():
-            angle, values = _closed(ds["angle"].values, ds[quantity].transpose("axis", "angle").values)
+            angle, values = _closed(ds["angle"].values, ds[quantity].transpose("axis", "angle").values, span)
             for axis, trace in zip(ds["axis"].values, values):
                 ax.plot(angle, trace, color=_colour(AXIS_COLOURS[str(axis)]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run],
                         gid=f"{quantity}-{axis}-{run}")
@@ -728,20 +772,21 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
         if after is not None:
             handles += [Line2D([], [], color="0.3", ls=RUN_STYLES[r], label=r) for r in runs]
         ax.axhline(0, color="0.85", lw=0.6, zorder=0)
-        _angle_axis(ax)
+        _angle_axis(ax, span)
         ax.set_ylabel(f"{name} {symbol} [{unit}]", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     axes[0].set_title("Shaking force on the block", fontsize=9)
     axes[1].set_title("Shaking moment on the block about the reference point", fontsize=9)
-    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over one revolution", fontsize=11)
+    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over {_period_name(time)}", fontsize=11)
     return fig
 
 
 def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0) -> Figure:
-    """The loci of the transverse force and moment over one revolution.
+    """The loci of the transverse force and moment over one revolution (the
+    working cycle with gas).
 
-    The tip of (F_y, F_z) and of (M_y, M_z) over the revolution, seen from
+    The tip of (F_y, F_z) and of (M_y, M_z) over the period, seen from
     the front of the engine (y to the right, z up), with equal aspect and
     the origin marked.
 
@@ -788,7 +833,7 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
         ax.set_title(f"{name} locus" + (" about the reference point" if quantity == "moment" else ""), fontsize=9)
         if after is not None:
             ax.legend(fontsize=7, frameon=False)
-    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over one revolution, "
+    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over {_period_name(time)}, "
                  "seen from the front (y right, z up; + the origin)", fontsize=11)
     return fig
 
@@ -930,6 +975,228 @@ def _transmission(ax: Axes, joints: xr.Dataset) -> None:
     ax.axhline(warning, color=_colour("vermillion"), lw=1.0, ls="--", label=f"warning below {warning:.0f}°",
                gid="transmission-warning")
     ax.legend(fontsize=7, frameon=False, loc="lower right")
+
+
+def pressure_figure(torque: xr.Dataset, *, cylinders: Sequence[str] | None = None) -> Figure:
+    """Cylinder pressure over the working cycle and the p–V diagram.
+
+    Parameters
+    ----------
+    torque : xarray.Dataset
+        ``/torque`` of :func:`harmbal.analyse` with gas.
+    cylinders : sequence of str, optional
+        Labels of the cylinders to draw; default all.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left, the absolute pressure [bar] against the crank angle θ [deg]
+        over the cycle (0–720° for a four-stroke), one ``Line2D`` per
+        cylinder drawn (gid ``pressure-<label>``, closed at the end of the
+        cycle) and a dotted line at every cylinder's firing TDC (gid
+        ``firing-<label>``). Right, pressure against the
+        displaced volume V − V_TDC [cm³], one closed loop per cylinder drawn
+        (gid ``pv-<label>``), whose area is the indicated work, and the swept
+        volume as a dashed line (gid ``swept-<label>``).
+
+    Raises
+    ------
+    ValueError
+        If a label is not a cylinder of the dataset.
+    """
+    from matplotlib.figure import Figure
+
+    labels = [str(c) for c in torque["cylinder"].values]
+    chosen = labels if cylinders is None else [str(c) for c in cylinders]
+    unknown = sorted(set(chosen) - set(labels))
+    if unknown:
+        raise ValueError(f"no cylinder {', '.join(unknown)} in the dataset (cylinders {', '.join(labels)})")
+    span = _span(torque)
+    fig = Figure(figsize=(11.0, 4.6), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    angle, pressure = _closed(torque["angle"].values, torque["pressure"].transpose("cylinder", "angle").values, span)
+    styles = {label: _series_style(i) for i, label in enumerate(chosen)}
+    for label in chosen:
+        left.plot(angle, pressure[labels.index(label)] / 1e5, lw=1.3, label=f"cylinder {label}",
+                  gid=f"pressure-{label}", **styles[label])
+    for label, fire in zip(labels, np.degrees(torque["firing_angle"].values) % span):
+        left.axvline(fire, color="0.6", lw=0.7, ls=":", zorder=0, gid=f"firing-{label}")
+        left.text(fire, 1.0, label, transform=left.get_xaxis_transform(), ha="center", va="bottom", fontsize=7,
+                  color="0.35")
+    _angle_axis(left, span)
+    left.set_ylabel("cylinder pressure p [bar]", fontsize=8)
+    left.set_title("Pressure over the cycle (dotted: firing TDC of each cylinder)", fontsize=9, pad=14)
+    left.tick_params(labelsize=7)
+    left.legend(fontsize=7, frameon=False, loc="upper right")
+    volume = torque["volume"].transpose("cylinder", "angle").values
+    swept = torque["swept_volume"].values
+    for label in chosen:
+        i = labels.index(label)
+        right.plot(np.append(volume[i], volume[i][:1]) * 1e6, pressure[i] / 1e5, lw=1.3, gid=f"pv-{label}",
+                   label=f"cylinder {label}", **styles[label])
+        right.axvline(swept[i] * 1e6, color=styles[label]["color"], lw=0.8, ls="--", zorder=0,
+                      gid=f"swept-{label}", label=f"swept volume {swept[i] * 1e6:.4g} cm³")
+    right.set_xlabel("displaced volume V − V_TDC [cm³]", fontsize=8)
+    right.set_ylabel("cylinder pressure p [bar]", fontsize=8)
+    right.set_title("p–V diagram (loop area: indicated work)", fontsize=9, pad=14)
+    right.tick_params(labelsize=7)
+    right.legend(fontsize=7, frameon=False, loc="upper right")
+    fig.suptitle(f"{torque.attrs.get('engine', '')}: cylinder pressure (absolute)", fontsize=11)
+    return fig
+
+
+def torque_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
+    """The torques on the crankshaft over the working cycle.
+
+    Parameters
+    ----------
+    torque : xarray.Dataset
+        ``/torque`` of :func:`harmbal.analyse` with gas.
+    speed : int, default 0
+        Index of the crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes against the crank angle θ [deg] over the cycle, ``Line2D``
+        closed at the end of the cycle: the gas torque of all cylinders (gid
+        ``torque-gas``), the mass torque the moving parts take from the crank
+        (gid ``torque-mass``), the torque the crank delivers, gas − mass
+        (gid ``torque-delivered``), and the mean torque (gid ``torque-mean``);
+        positive in the direction of rotation.
+    """
+    from matplotlib.figure import Figure
+
+    sel, rpm = _at_speed(torque, speed)
+    span = _span(torque)
+    fig = Figure(figsize=(9.0, 4.6), layout="constrained")
+    ax = fig.add_subplot()
+    mean = float(sel["mean_torque"])
+    for name, values, lw, label in (
+            ("gas", sel["gas_torque"].sum("cylinder").values, 1.1, "gas torque, all cylinders"),
+            ("mass", sel["mass_torque"].values, 1.1, "mass torque (taken by the moving parts)"),
+            ("delivered", sel["torque"].values, 1.8, "delivered torque = gas − mass")):
+        angle, closed = _closed(sel["angle"].values, values, span)
+        ax.plot(angle, closed, color=_colour(TORQUE_COLOURS[name]), lw=lw, label=label, gid=f"torque-{name}")
+    ax.axhline(mean, color=_colour(TORQUE_COLOURS["mean"]), lw=1.0, ls="--", label=f"mean {mean:.4g} N m",
+               gid="torque-mean")
+    ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+    _angle_axis(ax, span)
+    ax.set_ylabel("torque on the crankshaft T [N m]", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    fig.suptitle(f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm (constant speed): torque over "
+                 f"{_period_name(torque)}", fontsize=11)
+    return fig
+
+
+def torque_scale(torque: xr.Dataset) -> float:
+    """The largest order amplitude of the gas torque and of the delivered
+    torque at any speed [N m]: order components at most
+    :data:`~harmbal.orders.spectrum.BALANCED_RTOL` times it cancel (e.g. the
+    half orders of an evenly firing inline four)."""
+    gas = np.abs(torque["gas_torque_order"].sum("cylinder").values)
+    return float(max(gas.max(initial=0.0), np.abs(torque["torque_order"].values).max(initial=0.0)))
+
+
+def torque_spectrum_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
+    """Bar chart of the orders of the torque on the crankshaft.
+
+    Parameters
+    ----------
+    torque : xarray.Dataset
+        ``/torque`` of :func:`harmbal.analyse` with gas.
+    speed : int, default 0
+        Index of the crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes: per order k > 0 (half orders for a four-stroke) the peak
+        amplitudes of the delivered torque (gas − mass, gid
+        ``torque-delivered-order<k>``) and of the gas torque of all cylinders
+        (gid ``torque-gas-order<k>``), k printed as ``2`` or ``1.5``;
+        components cancelling to within :func:`torque_scale` are drawn as 0.
+        Major orders (every cylinder's gas harmonic in phase) are shaded
+        (gid ``major-order<k>``).
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    sel, rpm = _at_speed(torque, speed)
+    sel = sel.isel(order=slice(1, None))  # the mean is the mean torque, drawn in torque_figure
+    order = np.asarray(sel["order"].values, dtype=float)
+    scale = torque_scale(torque)
+    step = float(np.min(np.diff(order))) if order.size > 1 else 1.0
+    width = 0.4 * step
+    fig = Figure(figsize=(10.0, 4.4), layout="constrained")
+    ax = fig.add_subplot()
+    handles = []
+    for j, (name, phasors, label) in enumerate((
+            ("delivered", sel["torque_order"].values, "delivered torque (gas − mass)"),
+            ("gas", sel["gas_torque_order"].sum("cylinder").values, "gas torque, all cylinders"))):
+        amplitude = np.abs(phasors)
+        heights = np.where(is_balanced(amplitude, scale, BALANCED_RTOL), 0.0, amplitude)
+        bars = ax.bar(order + (j - 0.5) * width, heights, width, color=_colour(TORQUE_COLOURS[name]))
+        for bar, k in zip(bars, order):
+            bar.set_gid(f"torque-{name}-order{_order_label(k)}")
+        handles.append(Patch(color=_colour(TORQUE_COLOURS[name]), label=label))
+    for k in order[np.asarray(sel["major_order"].values, dtype=bool)]:
+        ax.axvspan(k - step / 2, k + step / 2, color="0.9", zorder=0, lw=0, gid=f"major-order{_order_label(k)}")
+    handles.append(Patch(color="0.9", label="major order (all cylinders in phase)"))
+    _order_axis(ax, order, max_labels=2 * MAX_ORDER_LABELS)
+    ax.set_ylabel("torque amplitude |T_k| (peak) [N m]", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper right")
+    fig.suptitle(f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: orders of the torque on the crankshaft "
+                 f"(mean {float(sel['mean_torque']):.4g} N m not drawn)", fontsize=11)
+    return fig
+
+
+def speed_fluctuation_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
+    """The crank speed over the working cycle of an engine with a flywheel.
+
+    Parameters
+    ----------
+    torque : xarray.Dataset
+        ``/torque`` of :func:`harmbal.analyse` for a scene with ``[gas]`` and
+        ``[flywheel]`` (variables ``omega`` and ``fluctuation_coefficient``).
+    speed : int, default 0
+        Index of the mean crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes: the crank speed [rpm] against the crank angle θ [deg]
+        (gid ``speed``, closed at the end of the cycle) and the scene's mean
+        speed (gid ``speed-mean``); the coefficient of fluctuation δ in the
+        title.
+
+    Raises
+    ------
+    ValueError
+        If the dataset has no speed fluctuation (no ``[flywheel]``).
+    """
+    from matplotlib.figure import Figure
+
+    if "omega" not in torque:
+        raise ValueError("the dataset has no speed fluctuation: the scene needs a [flywheel] table")
+    sel, rpm = _at_speed(torque, speed)
+    span = _span(torque)
+    angle, omega = _closed(sel["angle"].values, sel["omega"].values, span)
+    fig = Figure(figsize=(9.0, 3.8), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(angle, omega * 30 / np.pi, color=_colour("blue"), lw=1.5, label="crank speed", gid="speed")
+    ax.axhline(rpm, color="black", lw=1.0, ls="--", label=f"mean {rpm:.6g} rpm (the scene's speed)",
+               gid="speed-mean")
+    _angle_axis(ax, span)
+    ax.set_ylabel("crank speed n [rpm]", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    delta = float(sel["fluctuation_coefficient"])
+    fig.suptitle(f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: speed fluctuation, δ = (ω_max − ω_min)/ω_mean "
+                 f"= {delta:.4g}, J₀ = {float(sel['flywheel_inertia']):.4g} kg m²", fontsize=11)
+    return fig
 
 
 def accuracy_figure(rows: list[dict]) -> Figure:

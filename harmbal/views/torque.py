@@ -46,7 +46,9 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
 
         * ``pressure`` [Pa], ``gas_force`` [N] (on the piston, towards the
           crank) and ``gas_torque`` [N m] (on the crankshaft, in the
-          direction of rotation) per cylinder over θ;
+          direction of rotation) per cylinder over θ; ``volume`` [m³], the
+          displaced volume above TDC (0 at TDC, ``swept_volume`` at BDC; no
+          clearance volume) for the p–V diagram;
         * ``mass_torque`` [N m] (θ): d(KE)/dθ·ω² of the moving parts, the
           torque they take from the crank at constant speed;
           ``torque`` [N m] = Σ gas_torque − mass_torque, the torque the crank
@@ -97,6 +99,9 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     phasor = "C_k with T(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"
     data = {
         "pressure": (("cylinder", "angle"), gas.pressure, {"units": "Pa", "long_name": "cylinder pressure (absolute)"}),
+        "volume": (("cylinder", "angle"), gas.volume,
+                   {"units": "m3", "long_name": "displaced volume above TDC, A·(c_TDC − c_B(θ))",
+                    "description": "0 at TDC, swept_volume at BDC; the clearance volume is not included"}),
         "gas_force": (("cylinder", "angle"), gas.force,
                       {"units": "N", "long_name": "gas force on the piston, towards the crank"}),
         "gas_torque": (("cylinder", "angle"), gas.torque,

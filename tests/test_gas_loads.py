@@ -104,6 +104,22 @@ def test_roll_reaction_is_minus_the_gas_torque():
                                    rtol=0, atol=1e-12 * float(a.moment_scale))
 
 
+@pytest.mark.parametrize("name", ["v8-cross-plane-gas", "tractor-3cyl-gas"])
+def test_each_cylinders_gas_torque_is_its_own_trace_at_its_firing_tdc(name):
+    """Cylinders sharing a trace are evaluated once and shifted to their firing TDC: each one's torque
+    equals the virtual work of its own pressure at its own crank angle, written here."""
+    scene = hb.load_scene(ROOT / "datasets" / "engines" / f"{name}.toml")
+    torque = hb.analyse(scene)["torque"].ds
+    theta = torque.angle.values
+    for i, c in enumerate(scene.cylinders):
+        alpha = theta - float(torque.firing_angle[i])
+        p = cylinder_pressure(c.gas, c.crank_radius, c.rod_length, c.offset, 4, alpha)
+        _, dtravel = _pin_travel(theta + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset)
+        expected = -(p - c.gas.crankcase_pressure) * c.gas.piston_area * dtravel
+        np.testing.assert_allclose(torque.gas_torque.values[i], expected, rtol=0,
+                                   atol=1e-12 * float(np.abs(expected).max()))
+
+
 def test_imep_is_the_cycle_work_over_the_swept_volume():
     """IMEP from the mean gas torque equals ∮p dV / V_s computed here on a fine grid."""
     scene = _scene(SINGLE)

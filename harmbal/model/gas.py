@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .evaluate import ON_GRID
 from .kinematics import slider_crank
 from .pressure import check_gas, cylinder_pressure
 from ..scene import Scene
@@ -69,6 +70,15 @@ class GasLoads:
         return float(np.abs(self.torque).max(axis=-1, initial=0.0).sum())
 
 
+def grid_steps(delta: float, samples_per_rev: int) -> int | None:
+    """``delta`` [rad] in whole samples of a grid of ``samples_per_rev`` per
+    revolution, or None if it is not on the grid to within
+    :data:`~harmbal.model.evaluate.ON_GRID` (relative)."""
+    steps = delta * samples_per_rev / (2 * np.pi)
+    nearest = round(steps)
+    return nearest if abs(steps - nearest) <= ON_GRID * max(abs(steps), 1.0) else None
+
+
 def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     """Evaluate the gas loads of every cylinder over one cycle.
 
@@ -89,16 +99,24 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     m = samples_per_rev * revolutions
     theta = 2 * np.pi * np.arange(m) / samples_per_rev
     firing_angle = np.asarray(cylinder_firing(cyls, scene.cycle, scene.firing_order).angle, dtype=float)
-    pressure = np.zeros((len(cyls), m))
-    force = np.zeros((len(cyls), m))
-    torque = np.zeros((len(cyls), m))
-    volume = np.zeros((len(cyls), m))
+    pressure, force, torque, volume = (np.zeros((len(cyls), m)) for _ in range(4))
     swept = np.zeros(len(cyls))
     series = scene.model.series_harmonics if scene.model.piston == "series" else None
+    # Cylinders with the same trace and slider-crank have the same loads, shifted to their firing TDC: each
+    # such group is evaluated once and the others rolled, when their firing TDCs are whole samples apart.
+    evaluated: dict[tuple, int] = {}
+    shifted: list[tuple[int, int, int]] = []  # (cylinder, the one evaluated, firing whole samples later)
     for i, c in enumerate(cyls):
         gas = c.gas
         if gas is None:
             continue
+        key = (gas, c.crank_radius, c.rod_length, c.offset)
+        first = evaluated.get(key)
+        steps = None if first is None else grid_steps(firing_angle[i] - firing_angle[first], samples_per_rev)
+        if steps is not None:
+            shifted.append((i, first, steps))
+            continue
+        evaluated.setdefault(key, i)
         kin = slider_crank(theta + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset, series)
         pressure[i] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, scene.cycle,
                                         theta - firing_angle[i])
@@ -110,5 +128,11 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
         bottom = np.sqrt((c.rod_length - c.crank_radius) ** 2 - e * e)
         volume[i] = gas.piston_area * (top - kin.b)
         swept[i] = gas.piston_area * (top - bottom)
+    for i, first, steps in shifted:
+        k = steps % m
+        for values in (pressure, force, torque, volume):  # np.roll by k, without its copies
+            values[i, k:] = values[first, : m - k]
+            values[i, :k] = values[first, m - k:]
+        swept[i] = swept[first]
     return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
                     torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept)

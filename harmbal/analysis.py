@@ -13,7 +13,7 @@ from .orders.phasors import order_phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
 from .views.stars import stars_dataset
-from .views.time import body_aliasing, body_moments, time_dataset
+from .views.time import body_aliasing, body_moments, gas_aliasing, time_dataset
 from .views.torque import torque_dataset
 
 
@@ -82,9 +82,10 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
     moments = body_moments(unit)
     aliasing = body_aliasing(unit, backend, moments)
+    gas_tail = None if gas is None else gas_aliasing(gas, scene.sampling.max_order, backend)
     time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing, gas=gas,
-                        backend=backend)
-    values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas)
+                        gas_tail=gas_tail, backend=backend)
+    values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas, gas_tail)
     speeds = Speeds(scene.speeds)
     orders = orders_dataset(values, attrs, speeds, speeds.coords(), constants=gas_values)
     whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders

@@ -153,11 +153,12 @@ def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dic
 
 
 def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "scipy",
-                gas: GasLoads | None = None) -> tuple[dict, dict, dict | None]:
+                gas: GasLoads | None = None, gas_tail=None) -> tuple[dict, dict, dict | None]:
     """:func:`order_arrays` of one evaluation at unit speed (``aliasing`` from
     :func:`harmbal.views.time.body_aliasing`), and, with ``gas``, those of the
-    speed-independent gas loads over the cycle (else None); the values at
-    speed ω are the first times ω² plus the second."""
+    speed-independent gas loads over the cycle (else None; ``gas_tail``:
+    :func:`harmbal.views.time.gas_aliasing` if already computed); the values
+    at speed ω are the first times ω² plus the second."""
     force, moment = unit.total()
     spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order)
     kmax = scene.sampling.max_order
@@ -174,7 +175,8 @@ def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "
                                  revolutions=revs)
     gas_moment = phasors(gas.moment(), backend)
     gas_values, gas_attrs = order_arrays(np.zeros_like(gas_moment), gas_moment,
-                                         {"force": np.zeros(3), "moment": gas_aliasing(gas, kmax, backend)},
+                                         {"force": np.zeros(3), "moment": gas_aliasing(gas, kmax, backend) if gas_tail is None
+                                                                   else gas_tail},
                                          {"force": 0.0, "moment": gas.moment_scale}, attrs, max_order=kmax,
                                          backend=backend, revolutions=revs)
     attrs["gas_accuracy_reached"] = gas_attrs["accuracy_reached"]

@@ -98,11 +98,12 @@ def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy") -> np.nd
 
 
 def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None,
-                 gas: GasLoads | None = None, backend: str = "scipy"):
+                 gas: GasLoads | None = None, gas_tail=None, backend: str = "scipy"):
     """The time-domain Dataset of one evaluation (see :func:`simulate`);
-    ``moments`` = :func:`body_moments` and ``aliasing`` = :func:`body_aliasing`
-    if already computed; ``gas`` the gas loads if simulated (on the cycle's
-    grid, which repeats ``unit``'s revolution)."""
+    ``moments`` = :func:`body_moments`, ``aliasing`` = :func:`body_aliasing`
+    and ``gas_tail`` = :func:`gas_aliasing` if already computed; ``gas`` the
+    gas loads if simulated (on the cycle's grid, which repeats ``unit``'s
+    revolution)."""
     moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
     crank_force, _ = unit.crankshaft()
     force = unit.force_cylinder.sum(axis=0) + crank_force
@@ -114,7 +115,8 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
         theta, revs = gas.theta, gas.revolutions
         force, moment, moment_cyl = (np.tile(a, revs) for a in (force, moment, moment_cyl))
         extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,
-                 "aliasing_error_moment": gas_aliasing(gas, scene.sampling.max_order, backend)}
+                 "aliasing_error_moment": gas_aliasing(gas, scene.sampling.max_order, backend) if gas_tail is None
+                 else gas_tail}
     speeds = Speeds(scene.speeds)
 
     def var(dims, values, attrs, name=None):

@@ -1,0 +1,57 @@
+"""Time what gas costs: analyse() of the bundled gas scenes against the same
+scenes without the gas effect.
+
+Run from the repository root with harmbal installed:
+
+    python benchmarks/bench_gas.py [--repeat 200]
+
+Without gas a scene is sampled as finely as its inertia needs (48 samples per
+revolution for the V8 at the default accuracy); with gas at least 720
+(``GAS_SAMPLES_PER_REV``: a pressure trace's harmonics decay algebraically)
+over the two revolutions of a four-stroke cycle. So two ratios are printed:
+against the scene without gas at its own sampling, and at the gas scene's
+sampling (what the gas itself adds: one trace per cylinder type, a shift per
+cylinder, the /torque view). Prints a Markdown table; docs/performance.md
+records the figures and the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+from timing import machine, median_seconds
+
+ROOT = Path(__file__).resolve().parent.parent
+ENGINES = ROOT / "datasets" / "engines"
+SCENES = ("single-gas", "inline-4-gas", "tractor-3cyl-measured-gas", "v8-cross-plane-gas")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=200, help="calls per timing")
+    args = parser.parse_args()
+
+    import harmbal as hb
+    from harmbal.model.gas import gas_loads
+    from harmbal.model.sampling import choose_samples
+
+    print(machine(args.repeat))
+    print("| scene | samples/rev with gas | analyse with gas | gas_loads | without gas (own sampling) | ratio | "
+          "without gas (same sampling) | ratio |\n|---|---|---|---|---|---|---|---|")
+    for name in SCENES:
+        scene = hb.load_scene(ENGINES / f"{name}.toml")
+        n = choose_samples(scene)
+        inertia = scene.with_effects(scene.model.effects - {"gas"})
+        same = dataclasses.replace(inertia, sampling=dataclasses.replace(inertia.sampling, samples_per_rev=n))
+        gas = median_seconds(lambda: hb.analyse(scene), args.repeat)
+        loads = median_seconds(lambda: gas_loads(scene, n), args.repeat)
+        own = median_seconds(lambda: hb.analyse(inertia), args.repeat)
+        at_n = median_seconds(lambda: hb.analyse(same), args.repeat)
+        print(f"| {name} | {n} | {gas * 1e3:.2f} ms | {loads * 1e3:.2f} ms | {own * 1e3:.2f} ms | {gas / own:.2f}× | "
+              f"{at_n * 1e3:.2f} ms | {gas / at_n:.2f}× |")
+
+
+if __name__ == "__main__":
+    main()

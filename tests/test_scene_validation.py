@@ -1,11 +1,16 @@
 """Scene reading: units, defaults and overrides, and every validation rule."""
 
 import math
+import re
+from pathlib import Path
 
 import pytest
 
 import harmbal as hb
 from harmbal.scene import SceneError
+from harmbal.scene.reader import scene_from_text
+
+ENGINES = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 
 
 def problems(mapping):
@@ -118,3 +123,13 @@ def test_shared_problem_is_reported_once_not_per_cylinder(base_scene):
 def test_problem_text_shows_source_key_value_and_rule(base_scene):
     base_scene["piston"]["mass"] = "-2 kg"
     assert str(only_problem(base_scene)) == "<mapping>: piston.mass = '-2 kg': must be positive"
+
+
+@pytest.mark.parametrize("length", ["1e300 mm", "1e-300 mm", "1e308 m"])
+def test_lever_lengths_far_out_of_scale_are_reported_not_raised(length):
+    """The closure check works in numpy floats: a typo of 300 decades is a SceneError naming the key,
+    not an OverflowError or ZeroDivisionError."""
+    text = re.sub(r'coupler_length = "[^"]*"', f'coupler_length = "{length}"',
+                  (ENGINES / "lever-single.toml").read_text(encoding="utf-8"))
+    with pytest.raises(SceneError, match=r"lever_balancer\[1\].*cannot close"):
+        scene_from_text(text, "lever.toml")

@@ -163,14 +163,18 @@ def closure(lever: LeverBalancer, sense: int) -> Closure:
     def sin2(d: float) -> float:
         return ((a + b) ** 2 - d * d) * (d * d - (a - b) ** 2) / (4 * a * a * b * b)
 
-    margin = min(sin2(d_min), sin2(d_max))  # at the same extreme as the smallest acute γ below
-    # γ from cos γ = (a² + b² − d²)/(2ab); the acute angle is the one that matters.
-    gammas = []
-    for d, th in ((d_min, near_theta), (d_max, far_theta)):
-        cos_g = np.clip((a * a + b * b - d * d) / (2 * a * b), -1.0, 1.0)
-        g = math.acos(cos_g)
-        gammas.append((min(g, math.pi - g), th))
+    # In numpy floats: lengths far out of scale (a scene's typo) overflow to inf or nan here instead of
+    # raising, and the failure above is reported in words.
+    a, b, d_min, d_max = (np.float64(v) for v in (a, b, d_min, d_max))
+    with np.errstate(all="ignore"):
+        margin = float(min(sin2(d_min), sin2(d_max)))  # at the same extreme as the smallest acute γ below
+        # γ from cos γ = (a² + b² − d²)/(2ab); the acute angle is the one that matters.
+        gammas = []
+        for d, th in ((d_min, near_theta), (d_max, far_theta)):
+            g = float(np.arccos(np.clip((a * a + b * b - d * d) / (2 * a * b), -1.0, 1.0)))
+            gammas.append((min(g, math.pi - g), th))
     gamma, gamma_theta = min(gammas)
+    d_min, d_max = float(d_min), float(d_max)
     return Closure((d_min, d_max), (low, high), failure, margin, gamma, gamma_theta)
 
 

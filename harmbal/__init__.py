@@ -27,6 +27,7 @@ _EXPORTS = {
     "VerifyError": "balance.verify",
     "VerifyRequest": "scene.requests",
     "joints": "model.mechanism",
+    "loads": "views.loads",
     "LeverDesignRequest": "scene.requests",
     "LeverDesign": "balance.lever",
     "LinkageWarning": "scene.elements",

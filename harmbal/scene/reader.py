@@ -29,6 +29,7 @@ from .read_balancers import BalancerTables
 from .read_cylinders import CylinderTables
 from .read_engine import _MODEL_KEYS, _SAMPLING_KEYS, EngineTables
 from .read_gas import GasTables
+from .read_loads import LoadTables
 from .read_requests import RequestTables
 from .schema import (_MISSING, EFFECTS, MAX_SPEEDS, Cylinder, Model, Problem, Scene, SceneError, _closest,
                      _join)
@@ -97,11 +98,11 @@ def _read(data: Mapping, text: str, source: str) -> Scene:
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
-    "lanchester_pair", "lever_balancer", "design", "verify", "gas", "flywheel",
+    "lanchester_pair", "lever_balancer", "design", "verify", "gas", "flywheel", "loads",
 }
 
 
-class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTables):
+class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTables, LoadTables):
     """Walks the raw mapping, converts units, and collects problems."""
 
     def __init__(self, source: str):
@@ -231,6 +232,7 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
         shafts, levers = self.balancer_elements(data, sense, model, sampling)
         design, verify = self.requests(data, sampling.max_order)
         flywheel = self.flywheel(data, has_gas)
+        loads = self.loads(data, shafts)
         if "speed_fluctuation" in model.effects:
             if flywheel is None:
                 self.fail("model.effects", "speed_fluctuation", "needs a [flywheel] table (its inertia J₀)")
@@ -239,4 +241,4 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
                           "speed yet: leave out the effect or the levers")
         return Scene(**header, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts, levers=levers,
                      model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
-                     flywheel=flywheel, source=self.source, source_text=text)
+                     flywheel=flywheel, loads=loads, source=self.source, source_text=text)

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .elements import LeverBalancer, Shaft
+from .interfaces import LoadsRequest
 from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
 
 #: The effects of the moving masses: every scene simulates these unless its [model] says otherwise.
@@ -275,6 +276,8 @@ class Scene:
     verify: VerifyRequest | None = None
     #: The crank train's rotating inertia and load, for the speed fluctuation ([flywheel]).
     flywheel: Flywheel | None = None
+    #: Bearing and interface loads asked for ([loads]: main bearings, balancer interfaces, ramp).
+    loads: LoadsRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
 

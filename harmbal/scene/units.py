@@ -32,6 +32,7 @@ SI_UNITS: dict[str, str] = {
     "force": "N",
     "moment": "N m",
     "pressure": "Pa",
+    "time": "s",
     "dimensionless": "",
 }
 

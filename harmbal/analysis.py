@@ -74,7 +74,8 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         scene has lever balancers,
         ``/joints`` (:func:`harmbal.joints`: joint forces and toggle
         diagnostics); if it has a ``[verify]`` table, ``/verify``
-        (:func:`harmbal.verify`).
+        (:func:`harmbal.verify`); if it has a ``[loads]`` table, ``/loads``
+        (:func:`harmbal.loads`: bearing and interface loads).
     """
     if "speed_fluctuation" in scene.model.effects:
         return _fluctuating(scene, per_cylinder, backend)
@@ -117,7 +118,7 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
 
 
 def _tree(scene: Scene, groups: dict, backend: str):
-    """The analysis tree of ``groups``, with /joints and /verify if the scene asks."""
+    """The analysis tree of ``groups``, with /joints, /verify and /loads if the scene asks."""
     if scene.levers:
         from .model.mechanism import joints
 
@@ -126,6 +127,10 @@ def _tree(scene: Scene, groups: dict, backend: str):
         from .balance.verify import verify
 
         groups["verify"] = verify(scene, backend=backend)
+    if scene.loads is not None:
+        from .views.loads import loads
+
+        groups["loads"] = loads(scene, backend=backend)
     return tree({
         "title": f"harmbal analysis: {scene.name}",
         "engine": scene.name,

@@ -99,6 +99,17 @@ def _parser() -> argparse.ArgumentParser:
                      help="style rules added after the built-in ones (house fonts, colours, widths)")
     rep.set_defaults(handler=_report)
 
+    loads = commands.add_parser(
+        "loads", help="bearing and interface loads: crank train joints, main bearings, balancer bearings and fasteners",
+        description="Compute the loads of the crank train's joints per cylinder (side thrust, small end, big end and "
+                    "crank pin, with the cylinder pressure over the working cycle if the scene has gas), the main "
+                    "bearings' loads by the statically determinate split ([loads] main_bearings), and the balancers' "
+                    "bearing loads, fastener loads and ramp drive torque ([[loads.element]]), and print their peaks "
+                    "and means per speed. With -o, also write them to a netCDF archive (/scene, /loads).")
+    loads.add_argument("scene", type=Path, help="scene file (TOML)")
+    loads.add_argument("-o", "--output", type=Path, help="write the loads to this netCDF archive")
+    loads.set_defaults(handler=_loads)
+
     from .bench import ENGINES, FAMILIES, LAMBDAS
 
     bench = commands.add_parser(
@@ -189,6 +200,25 @@ def _run(args) -> None:
         print(joints_table(tree["joints"].ds))
     if args.output is not None:
         save(tree, args.output)
+        print(f"\nwrote {args.output}")
+
+
+def _loads(args) -> None:
+    if args.output is not None:
+        _check_output(args.output, (".nc",), "the loads are written as a netCDF archive (.nc)")
+    scene = _load(args.scene)
+    from .analysis import scene_dataset
+    from .labelled import tree
+    from .reporting.tables import loads_table
+    from .views.loads import loads
+
+    groups = {"scene": scene_dataset(scene), "loads": loads(scene)}
+    print(loads_table(groups["loads"]))
+    if args.output is not None:
+        from .io.archive import save
+
+        save(tree({"title": f"harmbal loads: {scene.name}", "engine": scene.name, "harmbal_version": __version__},
+                  groups), args.output)
         print(f"\nwrote {args.output}")
 
 
@@ -426,9 +456,10 @@ def _show(args) -> None:
     from .reporting.tables import order_table
 
     tree = _open(args.archive)
-    if "orders" not in tree.children:
+    if "orders" not in tree.children and "loads" not in tree.children:
         raise _BadInput(f"{args.archive}: archive has no /orders group")
-    print(order_table(tree["orders"].ds))
+    if "orders" in tree.children:
+        print(order_table(tree["orders"].ds))
     if "verify" in tree.children:
         from .reporting.tables import verify_table
 
@@ -439,6 +470,12 @@ def _show(args) -> None:
 
         print()
         print(joints_table(tree["joints"].ds))
+    if "loads" in tree.children:
+        from .reporting.tables import loads_table
+
+        if "orders" in tree.children:
+            print()
+        print(loads_table(tree["loads"].ds))
 
 
 def _one_line_warnings():

@@ -263,3 +263,36 @@ def test_bad_loads_tables_name_the_key():
     def no_main(d):
         del d["loads"]["main_bearings"]
     assert "needs loads.main_bearings" in _bad(no_main)
+
+
+def test_cli_loads_prints_tables_writes_an_archive_and_refuses_bad_input(tmp_path, capsys):
+    from harmbal.cli import main
+
+    out = tmp_path / "loads.nc"
+    assert main(["loads", str(SINGLE), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    for words in ("Crank train", "side thrust", "Main bearings", "Balance-shaft bearings", "Fastener loads",
+                  "Drive torque of the speed ramp 750 -> 2200 rpm", "2736.8", "722.45", "3.3406"):
+        assert words in text, words
+    archived = hb.open_archive(out)["loads"].ds
+    fresh = hb.loads(hb.load_scene(SINGLE))
+    np.testing.assert_allclose(archived.main_bearing_force.values, fresh.main_bearing_force.values, rtol=1e-15)
+    assert main(["show", str(out)]) == 0 and "Main bearings" in capsys.readouterr().out
+    # bad input: exit 2, the file and key named, nothing written
+    data = SINGLE.read_text().replace('main_bearings = ["20 mm", "152 mm"]', 'main_bearings = ["20 mm"]')
+    bad = tmp_path / "bad.toml"
+    bad.write_text(data)
+    out2 = tmp_path / "bad.nc"
+    assert main(["loads", str(bad), "-o", str(out2)]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "loads.main_bearings" in err and not out2.exists()
+    assert main(["loads", str(SINGLE), "-o", str(tmp_path / "loads.txt")]) == 2
+    # a scene without [loads]: the crank train alone
+    assert main(["loads", str(ENGINES / "inline-4.toml")]) == 0
+    text = capsys.readouterr().out
+    assert "Crank train" in text and "Main bearings" not in text
+
+
+def test_analyse_adds_loads_only_when_the_scene_asks():
+    assert "loads" in hb.analyse(hb.load_scene(SINGLE)).children
+    assert "loads" not in hb.analyse(hb.load_scene(ENGINES / "tractor-3cyl-gas.toml")).children

@@ -357,3 +357,67 @@ def lever_design_table(result) -> str:
               f"(|Δ| {abs(result.exact_criterion - result.criterion):.2g}, tolerance {result.tolerance:.2g}): {state}"]
     lines += [f"! {m}" for m in result.messages]
     return "\n".join(lines)
+
+
+#: The crank train's joint loads in the loads tables: variable and what it is.
+#: (The crank pin carries the big end's reaction: the same magnitudes, in the crank frame.)
+CRANK_TRAIN_LOADS = (("side_thrust", "side thrust (piston on wall)"), ("small_end_force", "small end (pin on rod)"),
+                     ("big_end_force", "big end / crank pin"))
+
+
+def loads_table(loads) -> str:
+    """Peak and mean loads of every joint and bearing, per speed, of a loads
+    Dataset (:func:`harmbal.loads`, ``/loads``): the crank train per
+    cylinder, the main bearings, the balance-shaft bearings, and the
+    fastener loads and ramp torques of the balancer elements."""
+    span = 360 * int(loads.attrs["revolutions"])
+    gas = "with gas" if loads.attrs["gas"] == "yes" else "no gas"
+    lines = [f"{loads.attrs['engine']}: bearing and interface loads over {span}° ({loads.attrs['samples_per_rev']} "
+             f"samples/rev; constant speed, {gas}); peak and mean of the magnitude, crank angle θ of the peak"]
+    for sel, rpm in _at_speeds(loads, lines):
+        lines += ["", f"Speed {rpm:.6g} rpm", "Crank train",
+                  f"  {'cylinder':<10}{'joint':<30}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
+        for label in sel["cylinder"].values:
+            for name, meaning in CRANK_TRAIN_LOADS:
+                row = sel.sel(cylinder=label)
+                lines.append(f"  {str(label):<10}{meaning:<30}{float(row[name + '_peak']):>12.5g}"
+                             f"{np.degrees(float(row[name + '_peak_angle'])):>8.1f}°{float(row[name + '_mean']):>12.5g}")
+        if "bearing" in sel.dims:
+            lines += ["Main bearings (statically determinate split; force of the crankshaft on the bearing)",
+                      f"  {'bearing':<10}{'x [mm]':>10}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
+            for label in sel["bearing"].values:
+                row = sel.sel(bearing=label)
+                lines.append(f"  {str(label):<10}{float(row['bearing_position']) * 1e3:>10.6g}"
+                             f"{float(row['main_bearing_force_peak']):>12.5g}"
+                             f"{np.degrees(float(row['main_bearing_force_peak_angle'])):>8.1f}°"
+                             f"{float(row['main_bearing_force_mean']):>12.5g}")
+        if "shaft" in sel.dims:
+            lines += ["Balance-shaft bearings (lever rule; rotating amplitude, static load, peak of the sum)",
+                      f"  {'shaft':<34}{'bearing':>8}{'x [mm]':>10}{'rotating [N]':>14}{'static [N]':>12}"
+                      f"{'peak [N]':>12}"]
+            for label in sel["shaft"].values:
+                for end in sel["shaft_bearing"].values:
+                    row = sel.sel(shaft=label, shaft_bearing=end)
+                    static = float(np.hypot(*row["shaft_bearing_static"].values))
+                    lines.append(f"  {str(label):<34}{str(end):>8}{float(row['shaft_bearing_position']) * 1e3:>10.6g}"
+                                 f"{float(row['shaft_bearing_rotating']):>14.5g}{static:>12.5g}"
+                                 f"{float(row['shaft_bearing_peak']):>12.5g}")
+    if "element" in loads.dims:
+        rpm = float(loads["fastener_speed"]) * 30 / np.pi
+        lines += ["", f"Fastener loads at {rpm:.6g} rpm (each fastener's share of its weight's centrifugal force)",
+                  f"  {'element':<34}{'fasteners':>10}{'load [N]':>12}"]
+        for label, count, value in zip(loads["element"].values, loads["fasteners"].values,
+                                       loads["fastener_load"].values):
+            if count:
+                lines.append(f"  {str(label):<34}{int(count):>10}{float(value):>12.5g}")
+        if "ramp_torque" in loads:
+            lines += ["", f"Drive torque of the speed ramp {loads['ramp_torque'].attrs['ramp']} "
+                          f"(crank α = {float(loads['ramp_alpha']):.5g} rad/s²)",
+                      f"  {'element':<34}{'I [kg m²]':>12}{'torque [N m]':>14}{'power [W]':>12}"]
+            for label, inertia, torque, power in zip(loads["element"].values, loads["inertia"].values,
+                                                     loads["ramp_torque"].values, loads["ramp_power"].values):
+                if np.isfinite(inertia):
+                    lines.append(f"  {str(label):<34}{inertia:>12.5g}{torque:>14.5g}{power:>12.5g}")
+            lines.append(f"  {'total':<34}{'':>12}{np.nansum(loads['ramp_torque'].values):>14.5g}"
+                         f"{np.nansum(loads['ramp_power'].values):>12.5g}")
+    return "\n".join(lines)

@@ -37,6 +37,17 @@ _EXPORTS = {
     "save": "io.archive",
     "open_archive": "io.archive",
     "ArchiveError": "io.archive",
+    "Blank": "scene.shapes",
+    "Sector": "scene.shapes",
+    "Segment": "scene.shapes",
+    "Strip": "scene.shapes",
+    "Box": "scene.shapes",
+    "Disc": "scene.shapes",
+    "PointMass": "scene.shapes",
+    "size_blank": "balance.counterweights",
+    "unbalance_range": "balance.counterweights",
+    "fastener_load": "balance.counterweights",
+    "clearance": "model.clearance",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -42,8 +42,10 @@ from ..orders.phasors import order_phasors
 from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio)
 from ..orders.spectrum import BALANCED_RTOL, rotating_split
 from ..scene import Scene, SceneError, scene_from_text
+from .counterweights import SizedBlank, size_blank
 from .solvers import LP_TOLERANCES, DesignError
-from ..scene.writer import (angle_text, length_text, quantity_text, signed_angle_text, toml_tables, with_engine, without_tables)
+from ..scene.writer import (angle_text, blank_table, length_text, quantity_text, signed_angle_text, toml_tables,
+                            with_engine, without_tables)
 from ..model.evaluate import moment_about, evaluate
 
 
@@ -262,8 +264,9 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     messages += _height_hints(request, values, predicted, ok, (kmax, sense, ref), w2, BALANCED_RTOL * moment_scale)
     messages += _bound_messages(request, values)
 
+    blanks = _sized_blanks(request, values, BALANCED_RTOL * force_scale)
     text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
-                       negligible=BALANCED_RTOL * force_scale)
+                       negligible=BALANCED_RTOL * force_scale, blanks=blanks)
     try:
         designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)"), source=scene.source)
     except SceneError as exc:  # e.g. a candidate's label already names an element of the scene
@@ -303,6 +306,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         "cancel": " ".join(request.cancel),
         "feasible": "no" if messages else "yes",
         "messages": "\n".join(messages),
+        "blanks": "\n".join(_blank_note(label, sized) for label, sized in blanks.items()),
     })
     return Design(designed, text, elements, dataset, tuple(messages))
 
@@ -474,10 +478,39 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np
 # The output scene
 
 
-def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[dict, list[str]]:
+def _sized_blanks(request: DesignRequest, values, negligible: float) -> dict[str, SizedBlank]:
+    """Each designed counterweight whose candidate gives a blank, by its
+    label: the blank with its free dimension sized to the plane's unbalance."""
+    sized = {}
+    for c in request.candidates:
+        if c.kind != "counterweights" or c.blank is None:
+            continue
+        for label, v in zip(c.names(), values[c.label]):
+            if abs(v) > negligible:
+                try:
+                    sized[label] = size_blank(c.blank, abs(v))
+                except DesignError as exc:
+                    raise DesignError(f"{label}: {exc}") from None
+    return sized
+
+
+def _blank_note(label: str, sized: SizedBlank) -> str:
+    """The sized dimension in words, for the drawing office."""
+    index, name = sized.blank.solve
+    part = sized.blank.parts[index]
+    value = f"{math.degrees(sized.value):.6g}°" if name == "half_angle" else (
+        f"{sized.value:.6g} kg" if name == "mass" else f"{sized.value * 1e3:.6g} mm")
+    return (f"{label}: blank sized, {part.kind} (shape {index + 1}) {name} = {value}; mass {sized.mass:.6g} kg, "
+            f"centre of mass at {sized.radius * 1e3:.6g} mm, {sized.unbalance * 1e3:.6g} kg mm")
+
+
+def _elements_toml(request: DesignRequest, values, negligible: float,
+                   blanks: dict[str, SizedBlank]) -> tuple[dict, list[str]]:
     """The designed elements as scene tables, and comment lines with rounded
     values for the drawing office. Unbalances below ``negligible`` [kg m]
-    are left out (an element the design does not need)."""
+    are left out (an element the design does not need); counterweights in
+    ``blanks`` are written as their sized blank, turned so that its
+    unbalance points the designed way."""
     tables: dict[str, list] = {"counterweight": [], "balance_shaft": [], "lanchester_pair": []}
     notes = []
 
@@ -494,7 +527,14 @@ def _elements_toml(request: DesignRequest, values, negligible: float) -> tuple[d
             continue
         if c.kind == "counterweights":
             for label, x, v in zip(c.names(), c.planes, vs):
-                if abs(v) > negligible:
+                if abs(v) > negligible and label in blanks:
+                    blank = blanks[label].blank
+                    tables["counterweight"].append({"label": label,
+                                                    "angle": angle_text(np.angle(v) - blank.unbalance_angle),
+                                                    "axial_position": length_text(x), **blank_table(blank)})
+                    note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")
+                    notes.append(_blank_note(label, blanks[label]))
+                elif abs(v) > negligible:
                     tables["counterweight"].append({"label": label, **unbalance(v, x)})
                     note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")
         elif c.kind == "lanchester_pair" and abs(abs(vs[0]) - abs(vs[1])) <= 1e-9 * max(map(abs, vs)):
@@ -542,7 +582,7 @@ def _verify_toml(scene: Scene, request: DesignRequest, predicted) -> dict:
 
 
 def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine: dict[str, str | None],
-                negligible: float) -> str:
+                negligible: float, blanks: dict[str, SizedBlank]) -> str:
     """The input scene's text without [design] and [verify], with the designed
     elements and the new [verify] appended (comments kept). Falls back to a
     plain TOML dump if the text cannot be edited safely."""
@@ -551,7 +591,7 @@ def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine:
     from .._version import __version__
 
     original = tomllib.loads(scene.source_text)
-    tables, notes = _elements_toml(request, values, negligible)
+    tables, notes = _elements_toml(request, values, negligible, blanks)
     addition = {**tables, "verify": _verify_toml(scene, request, predicted)}
     expected = {k: v for k, v in original.items() if k not in ("design", "verify")}
     for key, entries in tables.items():

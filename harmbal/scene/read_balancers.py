@@ -10,6 +10,7 @@ from typing import Any, Mapping
 
 from .elements import (ASSEMBLY_MODES, PRODUCT_CONVENTIONS, TRANSMISSION_WARNING, LeverBalancer, LinkBody, Shaft,
                        ShaftUnbalance, closure, closure_message, couple_from_moment, couple_from_products)
+from .read_shapes import BLANK_KEYS, ShapeTables
 from .schema import _MISSING, Model, Sampling, _join
 
 _PRODUCT_KEYS = {"xy", "xz", "convention"}
@@ -20,10 +21,10 @@ _LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "p
 _LEVER_KEYS = {"label", "axial_position", "pin_radius", "pin_angle", "pivot", "rocker_length", "coupler_length",
                "assembly", "rocker", "coupler"}
 _LINK_KEYS = {"mass", "cg", "inertia"}
-_COUNTERWEIGHT_KEYS = {"label", "unbalance", "mass", "radius", "angle", "axial_position"}
+_COUNTERWEIGHT_KEYS = {"label", "unbalance", "mass", "radius", "angle", "axial_position"} | BLANK_KEYS
 
 
-class BalancerTables:
+class BalancerTables(ShapeTables):
     """The balancer elements' tables; mixed into the scene reader, whose
     primitives (``fail``, ``table``, ``quantity``, ``array``, ...) it uses."""
 
@@ -89,8 +90,17 @@ class BalancerTables:
         for path, entry in self.array(raw, "counterweight"):
             self.unknown(entry, path, _COUNTERWEIGHT_KEYS)
             label = self.string(entry, "label", path, f"counterweight {len(shafts) + 1}")
-            u = self.unbalance_size(entry, path)
             angle = self.quantity(entry, "angle", path, "angle", default=0.0)
+            blank = self.blank(entry, path)
+            if blank is None and not BLANK_KEYS & set(entry):
+                u = self.unbalance_size(entry, path)
+            elif {"unbalance", "mass", "radius"} & set(entry):
+                self.fail(path, sorted(entry), "give the unbalance (or mass and radius) or a blank (density, "
+                          "thickness and [[...shape]] tables), not both")
+                u = math.nan
+            else:  # a blank: its unbalance, turned by its own direction in the blank's frame
+                u = blank.unbalance if blank is not None else math.nan
+                angle += blank.unbalance_angle if blank is not None else 0.0
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
             shafts.append(Shaft(label, 1, 0.0, 0.0, (ShaftUnbalance(u, angle, x),)))
         return tuple(shafts)

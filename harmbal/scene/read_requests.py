@@ -9,13 +9,14 @@ from typing import Mapping
 
 from .requests import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate,
                        DesignRequest, LeverDesignRequest, VerifyRequest)
+from .read_shapes import BLANK_KEYS
 from .schema import _MISSING, _join
 
 _DESIGN_KEYS = {"orders", "cancel", "objective", "peak", "counterweights", "balance_shaft", "moment_shaft",
                 "lanchester_pair", "lever"}
 _LEVER_DESIGN_KEYS = {"label", "signals", "weights", "mass", "cg_x", "cg_y"}
 _CANDIDATE_KEYS = {
-    "counterweights": {"label", "planes", "balance_factor", "max_unbalance"},
+    "counterweights": {"label", "planes", "balance_factor", "max_unbalance"} | BLANK_KEYS,
     "balance_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
     "moment_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
     "lanchester_pair": {"label", "order", "axial_position", "heights", "lateral", "max_unbalance"},
@@ -106,7 +107,7 @@ class RequestTables:
                               "must lie in [0, 1]: the share of the reciprocating masses the counterweights carry "
                               "besides the rotating masses")
             return Candidate(kind, label, 1, self.lengths(entry, "planes", path), balance_factor=factor,
-                             max_unbalance=bound)
+                             max_unbalance=bound, blank=self.blank(entry, path, sizing=True))
         if kind == "lanchester_pair":
             order = 1
             if "order" in entry:

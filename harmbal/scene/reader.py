@@ -98,7 +98,7 @@ def _read(data: Mapping, text: str, source: str) -> Scene:
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
-    "lanchester_pair", "lever_balancer", "design", "verify", "gas", "flywheel", "loads",
+    "lanchester_pair", "lever_balancer", "design", "verify", "gas", "flywheel", "loads", "outline",
 }
 
 
@@ -232,6 +232,7 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
         shafts, levers = self.balancer_elements(data, sense, model, sampling)
         design, verify = self.requests(data, sampling.max_order)
         flywheel = self.flywheel(data, has_gas)
+        outlines = self.outlines(data.get("outline", []), cylinders, shafts)
         loads = self.loads(data, shafts)
         if "speed_fluctuation" in model.effects:
             if flywheel is None:
@@ -241,4 +242,4 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
                           "speed yet: leave out the effect or the levers")
         return Scene(**header, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts, levers=levers,
                      model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
-                     flywheel=flywheel, loads=loads, source=self.source, source_text=text)
+                     flywheel=flywheel, loads=loads, outlines=outlines, source=self.source, source_text=text)

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .shapes import Blank
+
 #: Components of one order that a design can cancel: the transverse force
 #: (co- and counter-rotating), the transverse moment, and the moment about the
 #: crank axis.
@@ -83,6 +85,8 @@ class Candidate:
       direction α, phasing δ.
 
     ``max_unbalance`` [kg m] bounds each unknown's size in the peak objective.
+    ``blank`` (counterweights only) is a counterweight blank with one free
+    dimension, sized in each plane to the unbalance designed for it.
     """
 
     kind: str
@@ -95,6 +99,7 @@ class Candidate:
     lateral: tuple[float, float] = (0.0, 0.0)
     balance_factor: float | None = None
     max_unbalance: float | None = None
+    blank: Blank | None = None
 
     def unknowns(self) -> list[tuple[Placement, ...]]:
         """The placements of each complex unknown."""

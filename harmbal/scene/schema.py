@@ -16,6 +16,7 @@ import numpy as np
 from .elements import LeverBalancer, Shaft
 from .interfaces import LoadsRequest
 from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
+from .shapes import Outline
 
 #: The effects of the moving masses: every scene simulates these unless its [model] says otherwise.
 INERTIA_EFFECTS = ("reciprocating", "rotating", "rod_inertia", "mass_torque", "balancers")
@@ -276,6 +277,8 @@ class Scene:
     verify: VerifyRequest | None = None
     #: The crank train's rotating inertia and load, for the speed fluctuation ([flywheel]).
     flywheel: Flywheel | None = None
+    #: Parts' 2-D outlines for the clearance check ([[outline]]).
+    outlines: tuple[Outline, ...] = ()
     #: Bearing and interface loads asked for ([loads]: main bearings, balancer interfaces, ramp).
     loads: LoadsRequest | None = None
     source: str = "<mapping>"

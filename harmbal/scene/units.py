@@ -33,6 +33,7 @@ SI_UNITS: dict[str, str] = {
     "moment": "N m",
     "pressure": "Pa",
     "time": "s",
+    "density": "kg/m^3",
     "dimensionless": "",
 }
 
@@ -189,6 +190,7 @@ _SI: dict[str, tuple[tuple[str, int], ...]] = {
     "force": (("newton", 1),),
     "moment": (("newton", 1), ("meter", 1)),
     "pressure": (("pascal", 1),),
+    "density": (("kilogram", 1), ("meter", -3)),
     "dimensionless": (),
 }
 

@@ -85,3 +85,37 @@ def with_engine(text: str, engine: dict[str, str]) -> str:
     for key, value in engine.items():
         text = re.sub(rf'(?m)^(\s*{key}\s*=\s*)"[^"\n]*"', lambda m: m.group(1) + inline(value), text, count=1)
     return text
+
+
+def blank_table(blank) -> dict:
+    """A counterweight blank (:class:`~.shapes.Blank`) as the keys of its
+    [[counterweight]] table: density, thickness and the [[...shape]] tables,
+    at full precision (lengths in mm, angles in degrees)."""
+    from dataclasses import fields
+
+    angles = {"direction", "half_angle", "angle"}
+    shapes = []
+    for part in blank.parts:
+        table = {"kind": part.kind}
+        for f in fields(part):
+            value = getattr(part, f.name)
+            if f.name == "hole":
+                if value:
+                    table["hole"] = True
+            elif f.name == "thickness":
+                if value is not None:
+                    table["thickness"] = length_text(value)
+            elif f.name == "centre":
+                if any(value):
+                    table["centre"] = [length_text(c) for c in value]
+            elif f.name == "mass":
+                table["mass"] = quantity_text(value, "kg")
+            elif f.name in ("direction", "inner_radius") and value == 0:
+                continue  # the defaults
+            elif f.name in angles:
+                table[f.name] = f"{math.degrees(float(value))!r} deg"
+            else:
+                table[f.name] = length_text(value)
+        shapes.append(table)
+    return {"density": quantity_text(blank.density, "kg/m^3"), "thickness": length_text(blank.thickness),
+            "shape": shapes}

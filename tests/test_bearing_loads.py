@@ -296,3 +296,16 @@ def test_cli_loads_prints_tables_writes_an_archive_and_refuses_bad_input(tmp_pat
 def test_analyse_adds_loads_only_when_the_scene_asks():
     assert "loads" in hb.analyse(hb.load_scene(SINGLE)).children
     assert "loads" not in hb.analyse(hb.load_scene(ENGINES / "tractor-3cyl-gas.toml")).children
+
+
+def test_report_has_a_loads_section_with_polar_diagrams(tmp_path):
+    text = hb.report(hb.analyse(hb.load_scene(SINGLE)))
+    section = text[text.index('<section id="loads">'):text.index('<section id="provenance">')]
+    for gid in ("crank-pin-1", "crank-pin-peak-1", "big-end-1", "main-bearing-1", "main-bearing-2",
+                "main-bearing-peak-2"):
+        assert f'id="{gid}"' in section, gid
+    for words in ("Main bearings", "Balance-shaft bearings", "Fastener loads at 2300 rpm", "Drive torque", "2736.8 N",
+                  "722.45 N"):
+        assert words in section, words
+    # a scene without [loads] has no such section
+    assert 'id="loads"' not in hb.report(hb.analyse(hb.load_scene(ENGINES / "tractor-3cyl-gas.toml")))

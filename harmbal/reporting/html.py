@@ -370,6 +370,79 @@ def _torque(page: _Page, scene, tree) -> None:
     page.add("</section>")
 
 
+def _loads(page: _Page, scene, tree) -> None:
+    from .plots import crank_pin_figure, main_bearing_figure
+    from .tables import CRANK_TRAIN_LOADS
+
+    if "loads" not in tree.children:
+        return
+    loads = tree["loads"].ds
+    at = _first_speed(loads)
+    rpm = float(at["rpm"])
+    span = 360 * int(loads.attrs["revolutions"])
+    several = "speed" in loads.dims
+    page.add('<section id="loads"><h2>Bearing and interface loads</h2>'
+             f'<p class="note">At {rpm:.6g} rpm{" (the first speed of the sweep; every speed is in the Datasets)" if several else ""}, '
+             f"constant speed, over {span}°{' with the cylinder pressure' if loads.attrs['gas'] == 'yes' else ''}. "
+             "Peaks and means are of the magnitude; see docs/loads.md for the frames and the method.</p>"
+             "<h3>Crank train</h3>")
+    rows = []
+    for label in at["cylinder"].values:
+        row = at.sel(cylinder=label)
+        for name, meaning in CRANK_TRAIN_LOADS:
+            rows.append([str(label), meaning, f"{float(row[name + '_peak']):.5g} N",
+                         f"{math.degrees(float(row[name + '_peak_angle'])):.1f}°", f"{float(row[name + '_mean']):.5g} N"])
+    page.add(_table(["cylinder", "joint", "peak", "at θ", "mean"], rows, 2))
+    drawn = _distinct_cylinders(scene)
+    which = "" if len(drawn) == len(scene.cylinders) else (
+        f" of cylinder{'s' if len(drawn) > 1 else ''} {', '.join(drawn)} (the others' diagrams are the same)")
+    page.figure(crank_pin_figure(loads, cylinders=drawn), f"Polar diagrams{which} at {rpm:.6g} rpm: the con-rod's "
+                "force on the crank pin in the crank frame (radial outwards up, tangential in the direction of "
+                "rotation to the right; the dot is the peak), and the crank pin's force on the big-end bearing in "
+                "the rod frame.", "crank-pin")
+    if "bearing" in loads.dims:
+        page.add("<h3>Main bearings</h3>")
+        rows = [[str(label), f"{float(at['bearing_position'].sel(bearing=label)) * 1e3:.6g} mm",
+                 f"{float(at['main_bearing_force_peak'].sel(bearing=label)):.5g} N",
+                 f"{math.degrees(float(at['main_bearing_force_peak_angle'].sel(bearing=label))):.1f}°",
+                 f"{float(at['main_bearing_force_mean'].sel(bearing=label)):.5g} N",
+                 f"{abs(complex(at['main_bearing_order'].sel(bearing=label, rotation='co', order=0))):.5g} N"]
+                for label in at["bearing"].values]
+        page.add(_table(["bearing", "axial position", "peak", "at θ", "mean magnitude", "mean force"], rows, 1)
+                 + '<p class="note">Statically determinate split: each load on the crankshaft is carried by the two '
+                 "main bearings around it by the lever rule (overhung loads by the last two). A continuous-beam "
+                 "solution shares the loads differently (docs/loads.md).</p>")
+        page.figure(main_bearing_figure(loads), f"Main-bearing loads at {rpm:.6g} rpm: the crankshaft's force on "
+                    "each bearing over the angle in the block frame (+z up, t to the right); the dot is the peak.",
+                    "main-bearings")
+    if "shaft" in loads.dims:
+        page.add("<h3>Balance-shaft bearings</h3>")
+        rows = []
+        for label in at["shaft"].values:
+            for end in at["shaft_bearing"].values:
+                row = at.sel(shaft=label, shaft_bearing=end)
+                rows.append([str(label), str(end), f"{float(row['shaft_bearing_position']) * 1e3:.6g} mm",
+                             f"{float(row['shaft_bearing_rotating']):.5g} N",
+                             f"{float(np.hypot(*row['shaft_bearing_static'].values)):.5g} N",
+                             f"{float(row['shaft_bearing_peak']):.5g} N"])
+        page.add(_table(["shaft", "bearing", "axial position", "rotating amplitude", "static load", "peak"], rows, 2))
+    if "element" in loads.dims:
+        top = float(loads["fastener_speed"]) * 30 / math.pi
+        rows = [[str(label), str(int(count)), f"{float(value):.5g} N"] for label, count, value in
+                zip(loads["element"].values, loads["fasteners"].values, loads["fastener_load"].values) if count]
+        if rows:
+            page.add(f"<h3>Fastener loads at {top:.6g} rpm</h3>"
+                     + _table(["element", "fasteners", "load per fastener"], rows, 1))
+        if "ramp_torque" in loads:
+            rows = [[str(label), f"{inertia:.5g} kg m²", f"{torque:.4g} N m", f"{power:.4g} W"]
+                    for label, inertia, torque, power in zip(loads["element"].values, loads["inertia"].values,
+                                                             loads["ramp_torque"].values, loads["ramp_power"].values)
+                    if np.isfinite(inertia)]
+            page.add(f"<h3>Drive torque of the speed ramp {_e(loads['ramp_torque'].attrs['ramp'])}</h3>"
+                     + _table(["element", "moment of inertia", "torque I·α", "power at the end speed"], rows, 1))
+    page.add("</section>")
+
+
 def _provenance(page: _Page, scene, source: str) -> None:
     page.add('<section id="provenance"><h2>Provenance</h2>'
              f"<p>Made by harmbal {_e(__version__)} from <code>{_e(source)}</code>. To reproduce:</p>"
@@ -413,6 +486,7 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     _balancers(page, scene, tree)
     _lever(page, tree)
     _torque(page, scene, tree)
+    _loads(page, scene, tree)
     _provenance(page, scene, source or scene.source)
     title = f"harmbal report: {scene.name}"
     text = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

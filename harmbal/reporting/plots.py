@@ -1,8 +1,9 @@
 """Figures: crank stars and phasor diagrams of the free forces and moments,
 order spectra, time traces and loci of the shaking loads, the phasing of the
-balancer elements, the joint forces of a lever balancer and, with gas, the
+balancer elements, the joint forces of a lever balancer, with gas, the
 cylinder pressure, the torque over the cycle, its orders and the speed
-fluctuation.
+fluctuation, and the polar diagrams of the crank pin, the big end and the
+main bearings.
 
 Every diagram is drawn in the plane normal to the crank axis, oriented like
 the transverse vector w = v_z + i·v_t of :doc:`conventions`: +z points up and
@@ -1275,3 +1276,121 @@ def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
     with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "harmbal", "svg.fonttype": "none"}):
         fig.savefig(tmp, format=fmt, **options)
     return path
+
+
+def _polar_axes(ax: Axes, x, y, xlabel: str, ylabel: str, title: str) -> None:
+    """Equal axes through the origin sized to the loci ``x``, ``y`` [kN]."""
+    reach = max(float(np.abs(x).max(initial=0.0)), float(np.abs(y).max(initial=0.0)), 1e-9)
+    ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+    ax.axvline(0, color="0.85", lw=0.6, zorder=0)
+    ax.plot([0], [0], "o", color="0.2", markersize=3, zorder=20)
+    _frame(ax, (0.0, 0.0), 1.1 * reach)
+    ax.set_xlabel(xlabel, fontsize=8)
+    ax.set_ylabel(ylabel, fontsize=8)
+    ax.set_title(title, fontsize=9)
+    ax.tick_params(labelsize=7)
+
+
+def crank_pin_figure(loads: xr.Dataset, *, cylinders: Sequence[str] | None = None, speed: int = 0) -> Figure:
+    """Polar diagrams of the crank pin and of the big-end bearing.
+
+    Parameters
+    ----------
+    loads : xarray.Dataset
+        From :func:`harmbal.loads` (``/loads``).
+    cylinders : sequence of str, optional
+        Labels of the cylinders to draw; default all.
+    speed : int, default 0
+        Index of the crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left, the con-rod's force on the crank pin in the crank frame
+        (tangential [kN] to the right, radial [kN] up: outwards from the
+        crank axis through the pin), one closed ``Line2D`` per cylinder over
+        the angle (gid ``crank-pin-<label>``) and its peak as a marker (gid
+        ``crank-pin-peak-<label>``). Right, the crank pin's force on the
+        con-rod in the rod frame (across to the right, along the rod up:
+        from the big end to the small end), the big-end bearing's polar
+        diagram (gid ``big-end-<label>``).
+    """
+    from matplotlib.figure import Figure
+
+    sel, rpm = _at_speed(loads, speed)
+    labels = list(cylinders) if cylinders is not None else [str(c) for c in sel["cylinder"].values]
+    fig = Figure(figsize=(11.0, 5.6), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    xs, ys = [], []
+    for i, label in enumerate(labels):
+        style = _series_style(i)
+        pin = sel["crank_pin_force"].sel(cylinder=label).values / 1e3
+        end = sel["big_end_force"].sel(cylinder=label).values / 1e3
+        (radial, tangential), (along, across) = pin, end
+        left.plot(np.append(tangential, tangential[0]), np.append(radial, radial[0]), lw=1.1,
+                  label=f"cylinder {label}", gid=f"crank-pin-{label}", **style)
+        k = int(np.argmax(np.hypot(radial, tangential)))
+        left.plot([tangential[k]], [radial[k]], "o", color=style["color"], markersize=5,
+                  gid=f"crank-pin-peak-{label}")
+        right.plot(np.append(across, across[0]), np.append(along, along[0]), lw=1.1, label=f"cylinder {label}",
+                   gid=f"big-end-{label}", **style)
+        xs += [tangential, across]
+        ys += [radial, along]
+    everything = np.concatenate(xs + ys) if xs else np.zeros(1)  # one scale for both diagrams
+    _polar_axes(left, everything, everything, "tangential (direction of rotation) [kN]", "radial (outwards) [kN]",
+                "Crank pin: force of the con-rod, crank frame")
+    _polar_axes(right, everything, everything, "across the rod [kN]", "along the rod (big end → small end) [kN]",
+                "Big-end bearing: force of the crank pin, rod frame")
+    left.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    fig.suptitle(f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: crank-pin and big-end polar diagrams over "
+                 f"{_period_name(loads)}", fontsize=11)
+    return fig
+
+
+def main_bearing_figure(loads: xr.Dataset, *, speed: int = 0) -> Figure:
+    """Polar diagrams of the main-bearing loads, one axes per bearing.
+
+    Parameters
+    ----------
+    loads : xarray.Dataset
+        From :func:`harmbal.loads` with main bearings (``[loads]
+        main_bearings``).
+    speed : int, default 0
+        Index of the crank speed if the dataset has several.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Per bearing, the crankshaft's force on the bearing in the block
+        frame, oriented like every diagram here (+z up, t to the right),
+        [kN], one closed ``Line2D`` (gid ``main-bearing-<label>``) and its
+        peak as a marker (gid ``main-bearing-peak-<label>``); all axes share
+        one scale.
+    """
+    from matplotlib.figure import Figure
+
+    sel, rpm = _at_speed(loads, speed)
+    labels = [str(b) for b in sel["bearing"].values]
+    sense = 1 if loads.attrs.get("rotation") == "counterclockwise" else -1
+    force = sel["main_bearing_force"].transpose("bearing", "axis", "angle").values / 1e3
+    t = -sense * force[:, 0]  # t = −sense·y points to the right
+    z = force[:, 1]
+    columns = min(len(labels), 4)
+    rows = -(-len(labels) // columns)
+    fig = Figure(figsize=(3.2 * columns + 0.6, 3.4 * rows + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, columns)).ravel()
+    for i, label in enumerate(labels):
+        ax = axes[i]
+        ax.plot(np.append(t[i], t[i][0]), np.append(z[i], z[i][0]), lw=1.1, color=_colour("blue"),
+                gid=f"main-bearing-{label}")
+        k = int(np.argmax(np.hypot(t[i], z[i])))
+        ax.plot([t[i][k]], [z[i][k]], "o", color=_colour("vermillion"), markersize=5,
+                gid=f"main-bearing-peak-{label}")
+        x = float(sel["bearing_position"].sel(bearing=label)) * 1e3
+        _polar_axes(ax, t, z, f"F_t [kN] (t = {_t_label(loads.attrs.get('rotation', 'clockwise'))})", "F_z [kN]",
+                    f"bearing {label} (x = {x:.6g} mm): peak {np.hypot(t[i], z[i])[k]:.4g} kN")
+    for ax in axes[len(labels):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: main-bearing loads\nover {_period_name(loads)} "
+                 "(statically determinate split)", fontsize=10)
+    return fig

@@ -157,3 +157,27 @@ def test_outline_validation_names_file_and_key(entry, key, rule):
         scene_from_text(_engine() + entry, "engine.toml")
     assert any(p.source == "engine.toml" and p.key == key and rule in p.rule for p in info.value.problems), \
         str(info.value)
+
+
+def test_parts_apart_along_the_crank_axis_are_not_paired():
+    text = _engine() + _outline("weight", "crank", "circle", radius="10 mm", axial_range=_mm(0.04, 0.07))
+    text += _outline("big end", "rod", "circle", radius="40 mm", axial_range=_mm(0.071, 0.101))
+    text += _outline("skirt", "piston", "rectangle", width="60 mm", height="100 mm", axial_range=_mm(0.03, 0.14))
+    ds = hb.clearance(scene_from_text(text))
+    assert list(ds.pair.values) == ["weight / skirt", "big end / skirt"]
+    with pytest.raises(SceneError, match=r"outline\[1\].axial_range.*x_min < x_max"):
+        scene_from_text(_engine() + _outline("w", "crank", "circle", radius="1 mm", axial_range=_mm(0.07, 0.04)))
+
+
+def test_the_bundled_example_designs_its_blanks_and_clears():
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "datasets" / "examples" / "test-single-shapes.toml"
+    scene = hb.load_scene(path)
+    ds = hb.clearance(scene)
+    assert ds.sizes["pair"] == 20 and not bool(ds.collision.any())
+    # The counterweights' bottom dead centre check against the skirt (docs/shapes.md quotes it).
+    assert float(ds.min_distance.sel(pair="counterweight 1 / skirt, right")) == pytest.approx(0.0252082, abs=1e-7)
+    design = hb.design(scene)
+    assert "counterweight 2: blank sized, strip (shape 1) far = 81.0296 mm" in design.dataset.attrs["blanks"]
+    assert bool(hb.verify(design.scene).passed.all())

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import bearings
 from ..scene.shapes import SOLVABLE, Blank
 from .solvers import DesignError
 
@@ -174,11 +175,13 @@ def _text(name: str, value: float) -> str:
 
 
 def fastener_load(unbalance: float | Blank, speed: float, fasteners: int = 1) -> float:
-    """Centrifugal load [N] on each fastener of a counterweight.
+    """Centrifugal load [N] on each fastener of a counterweight or a
+    balance-shaft weight, given as a blank or its unbalance.
 
-    F = m·ω²·x / n: the blank's centrifugal force at crank speed ω, shared
+    F = m·ω²·x / n: the blank's centrifugal force at speed ω, shared
     equally by its n fasteners (the single-cylinder thesis writes
-    F_h = ½·m·ω²·x for its two bolts per blank).
+    F_h = ½·m·ω²·x for its two bolts per blank); the arithmetic is
+    :func:`harmbal.model.bearings.fastener_load`'s, which ``hb.loads`` uses.
 
     Parameters
     ----------
@@ -198,4 +201,4 @@ def fastener_load(unbalance: float | Blank, speed: float, fasteners: int = 1) ->
     if fasteners < 1:
         raise ValueError("fasteners must be at least 1")
     u = unbalance.unbalance if isinstance(unbalance, Blank) else float(unbalance)
-    return u * speed**2 / fasteners
+    return float(bearings.fastener_load(u, speed, fasteners))

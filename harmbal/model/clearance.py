@@ -126,8 +126,10 @@ def signed_distance(p: np.ndarray, rp: float, q: np.ndarray, rq: float) -> np.nd
     Parameters
     ----------
     p, q : ndarray
-        Complex vertices (..., n) and (..., m) [m], counterclockwise, broadcast
-        over the leading (angle) axes; one vertex is a point, two a segment.
+        Complex vertices (..., n) and (..., m) [m], counterclockwise, over
+        leading (angle) axes that broadcast; one vertex is a point, two a
+        segment. Each polygon moves rigidly over the leading axes (its shape
+        is that of its first entry), as the parts of a mechanism do.
     rp, rq : float
         Radii [m] the polygons are grown by.
 
@@ -137,8 +139,9 @@ def signed_distance(p: np.ndarray, rp: float, q: np.ndarray, rq: float) -> np.nd
         Distance [m] over the leading axes; negative: they overlap by that much
         (minus the penetration depth).
     """
-    p, q = np.broadcast_arrays(p[..., :, None], q[..., None, :])
-    p, q = p[..., :, 0], q[..., 0, :]
+    lead = np.broadcast_shapes(p.shape[:-1], q.shape[:-1])
+    p = np.broadcast_to(p, lead + p.shape[-1:])
+    q = np.broadcast_to(q, lead + q.shape[-1:])
     candidates = [np.abs(p[..., :, None] - q[..., None, :]).min(axis=(-2, -1))]
     for one, other in ((p, q), (q, p)):
         start, end = _edges(other)
@@ -146,14 +149,24 @@ def signed_distance(p: np.ndarray, rp: float, q: np.ndarray, rq: float) -> np.nd
             candidates.append(_segment_point(start[..., None, :], end[..., None, :], one[..., :, None])
                               .min(axis=(-2, -1)))
     euclid = np.minimum.reduce(candidates)
-    axes = np.concatenate([_axes(p), _axes(q)], axis=-1)
-    if axes.shape[-1] == 0:  # two points: disjoint unless they coincide
-        gap = euclid
-    else:
-        proj_p = np.real(p[..., :, None] * np.conj(axes[..., None, :]))
-        proj_q = np.real(q[..., :, None] * np.conj(axes[..., None, :]))
-        gap = np.maximum(proj_q.min(axis=-2) - proj_p.max(axis=-2), proj_p.min(axis=-2) - proj_q.max(axis=-2))
-        gap = gap.max(axis=-1)
+    if p.shape[-1] + q.shape[-1] == 2:  # two points: disjoint unless they coincide
+        return euclid - rp - rq
+    low, high = [], []
+    for own, other in ((p, q), (q, p)):
+        axes = _axes(own)
+        if not axes.shape[-1]:
+            continue
+        # A rigid polygon's extent along its own axes is fixed relative to any one of its vertices: measured
+        # once (on the first entry), it costs O(n) per angle instead of O(n²).
+        first = (own.reshape(-1, own.shape[-1])[0], axes.reshape(-1, axes.shape[-1])[0])
+        rel = np.real((first[0][:, None] - first[0][0]) * np.conj(first[1][None, :]))
+        anchor = np.real(own[..., :1] * np.conj(axes))
+        other_proj = np.real(other[..., :, None] * np.conj(axes[..., None, :]))
+        low += [anchor + rel.min(axis=0), other_proj.min(axis=-2)]
+        high += [anchor + rel.max(axis=0), other_proj.max(axis=-2)]
+    # Gaps along every axis: projections of p and of q taken in pairs (own extent, the other's).
+    gaps = [np.maximum(low[i + 1] - high[i], low[i] - high[i + 1]).max(axis=-1) for i in range(0, len(low), 2)]
+    gap = np.maximum.reduce(gaps)
     return np.where(gap > 0, euclid, gap) - rp - rq
 
 
@@ -170,27 +183,41 @@ def pair_distance(scene: Scene, first: Outline, second: Outline, theta: np.ndarr
 
 def _minimum(scene: Scene, first: Outline, second: Outline, samples: int) -> tuple[float, float]:
     """Smallest distance over a revolution and the crank angle where it occurs."""
-    from scipy.optimize import minimize_scalar
-
     step = 2 * math.pi / samples
     theta = step * np.arange(samples)
     d = pair_distance(scene, first, second, theta)
-    span = d.max() - d.min()
-    if span <= 1e-15 * max(1.0, abs(d.min())):  # constant: no angle is special
+    # Round-off in the positions is ~1e-16 of the mechanism's size; a distance that varies less is constant.
+    size = max(float(np.abs(_points(o)).max()) + o.radius for o in (first, second))
+    size += scene.cylinders[first.plane].crank_radius + scene.cylinders[first.plane].rod_length
+    if d.max() - d.min() <= 1e-12 * size:  # constant: no angle is special
         return float(d.min()), 0.0
     before, after = np.roll(d, 1), np.roll(d, -1)
-    # Sampled local minima (a plateau by its ends) close enough to the lowest that the true minimum may be theirs.
+    # Between two samples the distance cannot fall below a sample by more than the largest change over one
+    # step, so only the sampled local minima (a plateau by its ends) within that of the lowest can hold
+    # the true minimum.
+    reach = float(np.abs(after - d).max())
     local = np.flatnonzero((((d < before) & (d <= after)) | ((d <= before) & (d < after)))
-                           & (d <= d.min() + 0.1 * span))
-    best = (float(d.min()), float(theta[int(np.argmin(d))]))
-    for i in local:
-        # In the offset from the sample, not in θ itself: Brent's tolerance has a term √ε·|x|, which at
-        # |x| ~ 2π would leave 1e-7 rad, too coarse where the minimum is a kink (an edge meeting a corner).
-        result = minimize_scalar(lambda t: float(pair_distance(scene, first, second, theta[i] + t)[0]),
-                                 bounds=(-step, step), method="bounded", options={"xatol": 1e-13})
-        if result.fun < best[0]:
-            best = (float(result.fun), float(theta[i] + result.x) % (2 * math.pi))
-    return best
+                           & (d <= d.min() + reach))
+    # Golden-section search on [θᵢ − step, θᵢ + step] around every such sample at once (one vectorised
+    # evaluation per iteration), in the offset from the sample so that the tolerance is absolute.
+    ratio = (math.sqrt(5) - 1) / 2
+    low, high = np.full(local.size, -step), np.full(local.size, step)
+    x1, x2 = high - ratio * (high - low), low + ratio * (high - low)
+    f1 = pair_distance(scene, first, second, theta[local] + x1)
+    f2 = pair_distance(scene, first, second, theta[local] + x2)
+    while np.max(high - low) > 1e-13:
+        left = f1 <= f2  # the minimum lies in [low, x2]
+        high = np.where(left, x2, high)
+        low = np.where(left, low, x1)
+        x1, x2, f1, f2 = (np.where(left, high - ratio * (high - low), x2), np.where(left, x1, low + ratio * (high - low)),
+                          np.where(left, np.nan, f2), np.where(left, f1, np.nan))
+        new = np.where(left, x1, x2)
+        values = pair_distance(scene, first, second, theta[local] + new)
+        f1, f2 = np.where(left, values, f1), np.where(left, f2, values)
+    best = np.concatenate([[d.min()], f1, f2])
+    where = np.concatenate([[theta[int(np.argmin(d))]], theta[local] + x1, theta[local] + x2])
+    i = int(np.argmin(best))
+    return float(best[i]), float(where[i]) % (2 * math.pi)
 
 
 def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
@@ -209,7 +236,7 @@ def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
     -------
     xarray.Dataset
         Over ``pair`` (every two outlines on different bodies in the same
-        cylinder plane): ``min_distance`` [m] (negative: overlap, a
+        cylinder plane whose axial ranges overlap): ``min_distance`` [m] (negative: overlap, a
         collision), ``angle`` [rad] of crank angle θ in [0, 2π) where it
         occurs, ``collision`` (bool); coordinates ``part_a``, ``part_b``,
         ``body_a``, ``body_b``, ``cylinder``.
@@ -217,8 +244,7 @@ def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
     import xarray as xr
 
     outlines = scene.outlines
-    pairs = [(a, b) for i, a in enumerate(outlines) for b in outlines[i + 1:]
-             if a.plane == b.plane and a.body != b.body]
+    pairs = [(a, b) for i, a in enumerate(outlines) for b in outlines[i + 1:] if a.meets(b)]
     results = [_minimum(scene, a, b, samples) for a, b in pairs]
     distance = np.array([r[0] for r in results], dtype=float)
     angle = np.array([r[1] for r in results], dtype=float)

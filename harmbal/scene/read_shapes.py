@@ -23,7 +23,7 @@ _SHAPE_KEYS = {
     "fastener": {"kind", "mass", "radius", "angle", "solve", "solve_range"},
 }
 _OUTLINE_KEYS = {"part", "body", "cylinder", "kind", "centre", "radius", "vertices", "width", "height", "direction",
-                 "half_angle"}
+                 "half_angle", "axial_range"}
 _OUTLINE_SHAPES = ("circle", "polygon", "rectangle", "sector")
 
 
@@ -185,8 +185,13 @@ class ShapeTables:
                 self.fail(_join(path, "kind"), _MISSING, "missing: " + ", ".join(map(repr, _OUTLINE_SHAPES)))
                 continue
             points, radius = self.outline_shape(entry, path, kind)
+            axial = None
+            if "axial_range" in entry:
+                axial = self.quantity_list(entry, "axial_range", path, "length", 2, _MISSING)
+                if not axial[0] < axial[1]:
+                    self.fail(_join(path, "axial_range"), entry["axial_range"], "must be [x_min, x_max], x_min < x_max")
             if points is not None:
-                outlines.append(Outline(part, body, plane, points, radius))
+                outlines.append(Outline(part, body, plane, points, radius, axial))
         names = [o.part for o in outlines]
         for name in sorted({n for n in names if names.count(n) > 1}):
             self.fail("outline", name, "two outlines have this part name; part names must be unique")
@@ -197,7 +202,7 @@ class ShapeTables:
         allowed = {"circle": {"centre", "radius"}, "polygon": {"vertices", "radius"},
                    "rectangle": {"centre", "width", "height", "direction"},
                    "sector": {"centre", "radius", "half_angle", "direction"}}[kind]
-        for key in sorted(set(entry) & (_OUTLINE_KEYS - {"part", "body", "cylinder", "kind"}) - allowed):
+        for key in sorted(set(entry) & (_OUTLINE_KEYS - {"part", "body", "cylinder", "kind", "axial_range"}) - allowed):
             self.fail(_join(path, key), entry[key], f"not a key of a {kind} outline; allowed: "
                       + ", ".join(sorted(allowed)))
         centre = self.quantity_list(entry, "centre", path, "length", 2, [0, 0])

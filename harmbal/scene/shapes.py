@@ -284,7 +284,9 @@ class Outline:
     piston: origin at the piston pin, u along the cylinder axis away from
     the crank; block: origin on the crank axis, u along the cylinder axis;
     a shaft: origin on its axis, u up (+z) at θ = 0. In every frame v is 90°
-    ahead of u in the direction of rotation.
+    ahead of u in the direction of rotation. ``axial_range`` (x_min, x_max)
+    [m] is the part's extent along the crank axis: two parts whose ranges
+    do not overlap pass each other (None: the whole plane).
     """
 
     part: str
@@ -292,6 +294,16 @@ class Outline:
     plane: int
     points: tuple[tuple[float, float], ...]
     radius: float = 0.0
+    axial_range: tuple[float, float] | None = None
+
+    def meets(self, other: "Outline") -> bool:
+        """Whether the two parts can touch: the same cylinder plane, different
+        bodies, overlapping axial ranges."""
+        if self.plane != other.plane or self.body == other.body:
+            return False
+        if self.axial_range is None or other.axial_range is None:
+            return True
+        return self.axial_range[0] < other.axial_range[1] and other.axial_range[0] < self.axial_range[1]
 
 
 def sector_polygon(radius: float, half_angle: float, direction: float = 0.0,

@@ -309,3 +309,63 @@ def test_report_has_a_loads_section_with_polar_diagrams(tmp_path):
         assert words in section, words
     # a scene without [loads] has no such section
     assert 'id="loads"' not in hb.report(hb.analyse(hb.load_scene(ENGINES / "tractor-3cyl-gas.toml")))
+
+
+def _transverse_moment(forces_yz, x):
+    """Moment about the origin (M_y, M_z) of forces (y, z) (..., axis, angle) acting in planes x (...)."""
+    x = np.asarray(x)[..., None]
+    return np.stack([-(x * forces_yz[..., 1, :]).sum(axis=0), (x * forces_yz[..., 0, :]).sum(axis=0)])
+
+
+def test_block_moment_balance_with_couple_unbalances_and_a_balance_shaft():
+    # Every moving body is planar in its own plane x, the crankshaft and the balance shaft carry couple
+    # unbalances: the moments of all the block's loads about the transverse axes are the shaking moment.
+    data = tomllib.loads((ENGINES / "tractor-3cyl-balanced.toml").read_text())
+    data["balance_shaft"][0].update(axis_position=["30 mm", "-90 mm"],
+                                    unbalance=[{"unbalance": "0.02 kg m", "angle": "40 deg",
+                                                "axial_position": "100 mm"}])
+    data["counterweight"] = [{"label": "front web", "unbalance": "0.05 kg m", "angle": "180 deg",
+                              "axial_position": "180 mm"}]
+    data["loads"] = {"main_bearings": ["204 mm", "68 mm", "-68 mm", "-204 mm"],
+                     "element": [{"label": "balance shaft", "bearings": ["150 mm", "-150 mm"]}]}
+    scene = hb.load_scene(data)
+    ds = hb.loads(scene, samples_per_rev=N)
+    sim = hb.simulate(scene, samples_per_rev=N)
+    main = ds.main_bearing_force.transpose("bearing", "axis", "angle").values
+    shaft = ds.shaft_bearing_force.isel(shaft=0).transpose("shaft_bearing", "axis", "angle").values
+    sense = scene.sense
+    walls = []
+    for cyl in scene.cylinders:
+        w = ds["side_thrust"].sel(cylinder=cyl.label).values * 1j * np.exp(1j * cyl.bank)
+        walls.append(np.stack([-sense * w.imag, w.real]))
+    walls = np.array(walls)
+    # forces: the shaking force again (no gas here)
+    scale = float(ds.big_end_force_peak.max())
+    total = main.sum(axis=0) + shaft.sum(axis=0) + walls.sum(axis=0)
+    np.testing.assert_allclose(total, sim.force.sel(axis=["y", "z"]).values, atol=1e-9 * scale)
+    moment = (_transverse_moment(main, scene.loads.main_bearings) + _transverse_moment(shaft, [0.150, -0.150])
+              + _transverse_moment(walls, [c.x for c in scene.cylinders]))
+    np.testing.assert_allclose(moment, sim.moment.sel(axis=["y", "z"]).values, atol=1e-9 * scale * 0.3)
+
+
+def test_lever_balancer_couplers_load_the_main_bearings():
+    data = tomllib.loads((ENGINES / "lever-single.toml").read_text())
+    data["loads"] = {"main_bearings": ["-40 mm", "40 mm"]}
+    data["lever_balancer"][0]["axial_position"] = "25 mm"  # off the cylinder's plane: the moments tell
+    data["cylinder"][0]["axial_position"] = "-10 mm"
+    scene = hb.load_scene(data)
+    ds, js = hb.loads(scene, samples_per_rev=N), hb.joints(scene, samples_per_rev=N)
+    d = js.joint_force.sel(joint="D").transpose("axis", "angle").values
+    scale = float(js.joint_force_peak.max())
+    main = ds.main_bearing_force.transpose("bearing", "axis", "angle").values
+    np.testing.assert_allclose(main.sum(axis=0), -d, atol=1e-11 * scale)
+    # moments: main bearings, the walls at the cylinder's plane and the rocker pivot (−A on the block)
+    sense = scene.sense
+    cyl, lever = scene.cylinders[0], scene.levers[0]
+    w = ds["side_thrust"].values[0] * 1j * np.exp(1j * cyl.bank)
+    wall = np.stack([-sense * w.imag, w.real])[None]
+    pivot = -js.joint_force.sel(joint=f"{lever.label}: A").transpose("axis", "angle").values[None]
+    moment = (_transverse_moment(main, scene.loads.main_bearings) + _transverse_moment(wall, [cyl.x])
+              + _transverse_moment(pivot, [lever.x]))
+    sim = hb.simulate(scene, samples_per_rev=N)
+    np.testing.assert_allclose(moment, sim.moment.sel(axis=["y", "z"]).values, atol=1e-9 * scale * 0.3)

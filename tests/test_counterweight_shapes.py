@@ -292,6 +292,7 @@ def test_scene_counterweight_from_a_blank():
     (lambda t: t.replace('hole = true', 'hole = "yes"'), "counterweight[1].shape[2].hole", "true or false"),
     (lambda t: t.replace('radius = "9 mm"', 'radius = "90 mm"'), "counterweight[1]", "mass must be positive"),
     (lambda t: t.replace('density = "7.85 g/cm^3"', 'density = "7.85 g"'), "counterweight[1].density", ""),
+    (lambda t: t[:t.index("[[counterweight.shape]]")] + "shape = []\n", "counterweight[1].shape", "at least one"),
 ])
 def test_blank_validation_names_file_and_key(edit, key, rule):
     with pytest.raises(SceneError) as info:

@@ -92,7 +92,7 @@ def unbalance_range(blank: Blank, solve: tuple[int, str] | None = None,
         a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
         best = minimize_scalar(lambda p: sign * blank.with_dimension(p, solve).unbalance, bounds=(a, b),
                                method="bounded", options={"xatol": 1e-14 * (high - low)})
-        extremes.append(min(sign * values[i], best.fun) * sign)
+        extremes.append(float(min(sign * values[i], best.fun) * sign))
     return extremes[0], extremes[1]
 
 

@@ -47,6 +47,8 @@ class ShapeTables:
                 solve_range = bounds
             if part is not None:
                 parts.append(part)
+        if not parts and not self.problems_at(_join(path, "shape")):
+            self.fail(_join(path, "shape"), entry.get("shape", _MISSING), "give at least one [[...shape]] table")
         if sizing and len(solve) != 1:
             self.fail(_join(path, "shape"), [s for _, s in solve] or _MISSING,
                       "exactly one shape must name the dimension to size with solve = \"NAME\"")

@@ -181,3 +181,11 @@ def test_the_bundled_example_designs_its_blanks_and_clears():
     design = hb.design(scene)
     assert "counterweight 2: blank sized, strip (shape 1) far = 81.0296 mm" in design.dataset.attrs["blanks"]
     assert bool(hb.verify(design.scene).passed.all())
+
+
+def test_no_outlines_no_pairs_and_the_sampling_is_checked():
+    scene = scene_from_text(_engine())
+    ds = hb.clearance(scene)
+    assert ds.sizes["pair"] == 0 and ds.part_a.dtype.kind == "U"
+    with pytest.raises(ValueError, match="at least 8"):
+        hb.clearance(scene, samples=4)

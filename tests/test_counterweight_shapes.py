@@ -354,3 +354,22 @@ def test_design_infeasible_blank_names_the_counterweight():
     scene = scene_from_text(ENGINE + DESIGN.replace('"50 mm"', '"1 mm"'))
     with pytest.raises(DesignError, match=r"^counterweight: no segment chord in \[-95 mm, 95 mm\] gives"):
         hb.design(scene)
+
+
+def test_cli_design_writes_the_sized_blank_or_nothing(tmp_path):
+    good, bad = tmp_path / "good.toml", tmp_path / "bad.toml"
+    good.write_text(ENGINE + DESIGN, encoding="utf-8")
+    bad.write_text(ENGINE + DESIGN.replace('"50 mm"', '"1 mm"'), encoding="utf-8")
+    out = tmp_path / "designed.toml"
+    # (balance factor 0.5 leaves the counter-rotating force: --partial writes the design anyway)
+    run = subprocess.run([sys.executable, "-m", "harmbal", "design", str(good), "-o", str(out), "--partial"],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    written = out.read_text(encoding="utf-8")
+    assert "#   counterweight: blank sized, segment (shape 1) chord = " in written
+    assert hb.load_scene(out).shafts[0].unbalances[0].unbalance == pytest.approx(
+        hb.design(scene_from_text(ENGINE + DESIGN)).dataset.unbalance.values[0], rel=1e-12)
+    out.unlink()
+    run = subprocess.run([sys.executable, "-m", "harmbal", "design", str(bad), "-o", str(out)], capture_output=True,
+                         text=True)
+    assert run.returncode == 2 and "counterweight: no segment chord" in run.stderr and not out.exists()

@@ -59,6 +59,13 @@ def _range(blank: Blank, solve: tuple[int, str], bounds: tuple[float, float] | N
     return low, high
 
 
+def _bounds(blank: Blank, solve: tuple[int, str], bounds: tuple[float, float] | None):
+    """The search range given, else the blank's own solve_range if it is for this dimension."""
+    if bounds is not None:
+        return bounds
+    return blank.solve_range if tuple(solve) == tuple(blank.solve or ()) else None
+
+
 def unbalance_range(blank: Blank, solve: tuple[int, str] | None = None,
                     bounds: tuple[float, float] | None = None) -> tuple[float, float]:
     """Smallest and largest unbalance m·x [kg m] the blank can give as its
@@ -83,14 +90,14 @@ def unbalance_range(blank: Blank, solve: tuple[int, str] | None = None,
     from scipy.optimize import minimize_scalar
 
     solve = solve or blank.solve
-    low, high = _range(blank, solve, bounds if bounds is not None else blank.solve_range)
+    low, high = _range(blank, solve, _bounds(blank, solve, bounds))
     grid = np.linspace(low, high, SIZING_SAMPLES)
     values = np.array([blank.with_dimension(p, solve).unbalance for p in grid])
     extremes = []
     for sign in (1.0, -1.0):
         i = int(np.argmin(sign * values))
         a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-        best = minimize_scalar(lambda p: sign * blank.with_dimension(p, solve).unbalance, bounds=(a, b),
+        best = minimize_scalar(lambda p, sign=sign: sign * blank.with_dimension(p, solve).unbalance, bounds=(a, b),
                                method="bounded", options={"xatol": 1e-14 * (high - low)})
         extremes.append(float(min(sign * values[i], best.fun) * sign))
     return extremes[0], extremes[1]
@@ -141,7 +148,7 @@ def size_blank(blank: Blank, target: float, solve: tuple[int, str] | None = None
     solve = solve or blank.solve
     if solve is None:
         raise ValueError("say which dimension to solve: solve = (part index, name)")
-    bounds = bounds if bounds is not None else blank.solve_range
+    bounds = _bounds(blank, solve, bounds)
     low, high = _range(blank, solve, bounds)
 
     def excess(p: float) -> float:

@@ -36,6 +36,7 @@ import math
 
 import numpy as np
 
+from ..labelled import dataset
 from ..scene.schema import Scene
 from ..scene.shapes import Outline
 from .kinematics import slider_crank
@@ -205,15 +206,14 @@ def _minimum(scene: Scene, first: Outline, second: Outline, samples: int) -> tup
     x1, x2 = high - ratio * (high - low), low + ratio * (high - low)
     f1 = pair_distance(scene, first, second, theta[local] + x1)
     f2 = pair_distance(scene, first, second, theta[local] + x2)
-    while np.max(high - low) > 1e-13:
-        left = f1 <= f2  # the minimum lies in [low, x2]
-        high = np.where(left, x2, high)
-        low = np.where(left, low, x1)
-        x1, x2, f1, f2 = (np.where(left, high - ratio * (high - low), x2), np.where(left, x1, low + ratio * (high - low)),
-                          np.where(left, np.nan, f2), np.where(left, f1, np.nan))
-        new = np.where(left, x1, x2)
-        values = pair_distance(scene, first, second, theta[local] + new)
-        f1, f2 = np.where(left, values, f1), np.where(left, f2, values)
+    while local.size and np.max(high - low) > 1e-13:
+        left = f1 <= f2  # the minimum lies in [low, x2], where x1 becomes the upper inner point; else in [x1, high]
+        high, low = np.where(left, x2, high), np.where(left, low, x1)
+        kept_x, kept_f = np.where(left, x1, x2), np.where(left, f1, f2)
+        new = np.where(left, high - ratio * (high - low), low + ratio * (high - low))
+        value = pair_distance(scene, first, second, theta[local] + new)
+        x1, f1 = np.where(left, new, kept_x), np.where(left, value, kept_f)
+        x2, f2 = np.where(left, kept_x, new), np.where(left, kept_f, value)
     best = np.concatenate([[d.min()], f1, f2])
     where = np.concatenate([[theta[int(np.argmin(d))]], theta[local] + x1, theta[local] + x2])
     i = int(np.argmin(best))
@@ -241,15 +241,15 @@ def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
         occurs, ``collision`` (bool); coordinates ``part_a``, ``part_b``,
         ``body_a``, ``body_b``, ``cylinder``.
     """
-    import xarray as xr
-
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 8:
+        raise ValueError(f"samples must be an integer of at least 8, got {samples!r}")
     outlines = scene.outlines
     pairs = [(a, b) for i, a in enumerate(outlines) for b in outlines[i + 1:] if a.meets(b)]
     results = [_minimum(scene, a, b, samples) for a, b in pairs]
     distance = np.array([r[0] for r in results], dtype=float)
     angle = np.array([r[1] for r in results], dtype=float)
     names = [f"{a.part} / {b.part}" for a, b in pairs]
-    return xr.Dataset(
+    return dataset(
         {
             "min_distance": ("pair", distance, {"units": "m", "long_name": "smallest distance over a revolution "
                                                 "(negative: overlap)"}),
@@ -257,12 +257,12 @@ def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
             "collision": ("pair", distance < 0, {"long_name": "the parts overlap somewhere in the revolution"}),
         },
         {
-            "pair": ("pair", names),
-            "part_a": ("pair", [a.part for a, _ in pairs]),
-            "part_b": ("pair", [b.part for _, b in pairs]),
-            "body_a": ("pair", [a.body for a, _ in pairs]),
-            "body_b": ("pair", [b.body for _, b in pairs]),
-            "cylinder": ("pair", [scene.cylinders[a.plane].label for a, _ in pairs]),
+            "pair": ("pair", np.array(names, dtype=str)),
+            "part_a": ("pair", np.array([a.part for a, _ in pairs], dtype=str)),
+            "part_b": ("pair", np.array([b.part for _, b in pairs], dtype=str)),
+            "body_a": ("pair", np.array([a.body for a, _ in pairs], dtype=str)),
+            "body_b": ("pair", np.array([b.body for _, b in pairs], dtype=str)),
+            "cylinder": ("pair", np.array([scene.cylinders[a.plane].label for a, _ in pairs], dtype=str)),
         },
         {"title": f"harmbal clearance check: {scene.name}", "engine": scene.name, "samples": samples,
          "conventions": "Outlines in each cylinder's plane; crank angle theta in the direction of rotation, 0 when "

@@ -44,7 +44,8 @@ from ..scene.elements import Shaft
 from .kinematics import slider_crank
 from .mechanism import reactions
 
-#: Speeds multiplied out at once when peaks are taken over a sweep (bounds the memory to ~100 MB).
+#: Values multiplied out at once when peaks are taken over a sweep: 2²³ complex values, ~200 MB with
+#: their magnitudes, however many speeds the sweep has.
 _PEAK_CHUNK = 1 << 23
 
 

@@ -190,6 +190,7 @@ _SI: dict[str, tuple[tuple[str, int], ...]] = {
     "force": (("newton", 1),),
     "moment": (("newton", 1), ("meter", 1)),
     "pressure": (("pascal", 1),),
+    "time": (("second", 1),),
     "density": (("kilogram", 1), ("meter", -3)),
     "dimensionless": (),
 }

@@ -373,3 +373,15 @@ def test_cli_design_writes_the_sized_blank_or_nothing(tmp_path):
     run = subprocess.run([sys.executable, "-m", "harmbal", "design", str(bad), "-o", str(out)], capture_output=True,
                          text=True)
     assert run.returncode == 2 and "counterweight: no segment chord" in run.stderr and not out.exists()
+
+
+def test_the_documented_blank():
+    # docs/shapes.md: the blank of datasets/examples/test-single-shapes.toml with its cut at 70 mm.
+    blank = hb.Blank(7850.0, 0.030, (hb.Strip(0.095, 0.0, 0.07), hb.Disc(0.009, centre=(0.025, 0.0), hole=True),
+                                     hb.PointMass(0.04, 0.025, math.radians(30)),
+                                     hb.PointMass(0.04, 0.025, math.radians(-30))), solve=(0, "far"))
+    assert (round(blank.mass, 4), round(blank.centroid_radius * 1e3, 2), round(blank.unbalance, 6)) == \
+        (2.8395, 32.84, 0.093247)
+    assert hb.unbalance_range(blank) == pytest.approx((0.233865e-3, 134.842e-3), rel=1e-5)
+    sized = hb.size_blank(blank, 0.11569506063699182)  # the 117 mm plane's unbalance
+    assert round(hb.fastener_load(sized.blank, 241.0, 2)) == 3360

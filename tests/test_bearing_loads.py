@@ -305,7 +305,7 @@ def test_report_has_a_loads_section_with_polar_diagrams(tmp_path):
                 "main-bearing-peak-2"):
         assert f'id="{gid}"' in section, gid
     for words in ("Main bearings", "Balance-shaft bearings", "Fastener loads at 2300 rpm", "Drive torque", "2736.8 N",
-                  "722.45 N"):
+                  "722.45 N", "Orders of the main-bearing force", "<th>0.5 co</th>", "<th>3 counter</th>"):
         assert words in section, words
     # a scene without [loads] has no such section
     assert 'id="loads"' not in hb.report(hb.analyse(hb.load_scene(ENGINES / "tractor-3cyl-gas.toml")))

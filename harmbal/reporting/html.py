@@ -24,6 +24,9 @@ from ..orders.spectrum import is_balanced
 #: Crank angles per revolution of the traces and loci (one every 0.5°).
 TRACE_SAMPLES = 720
 
+#: Highest order of the main-bearing force in the report's order table.
+MAIN_BEARING_ORDERS = 3
+
 _STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: #1a1a1a;
        max-width: 62rem; margin: 2rem auto; padding: 0 1rem; line-height: 1.45; }
@@ -415,6 +418,13 @@ def _loads(page: _Page, scene, tree) -> None:
         page.figure(main_bearing_figure(loads), f"Main-bearing loads at {rpm:.6g} rpm: the crankshaft's force on "
                     "each bearing over the angle in the block frame (+z up, t to the right); the dot is the peak.",
                     "main-bearings")
+        orders = [k for k in at["order"].values if 0 < k <= MAIN_BEARING_ORDERS]
+        phasors = at["main_bearing_order"].sel(order=orders)
+        rows = [[str(label)] + [f"{abs(complex(phasors.sel(bearing=label, rotation=r, order=k))):.4g}"
+                                for k in orders for r in ("co", "counter")] for label in at["bearing"].values]
+        page.add(_table(["bearing"] + [f"{k:g} {r}" for k in orders for r in ("co", "counter")], rows, 1)
+                 + '<p class="note">Orders of the main-bearing force [N]: amplitudes of the co- and counter-rotating '
+                 "phasors (w = F_z + i·F_t, as in the order spectrum); the mean force is in the table above.</p>")
     if "shaft" in loads.dims:
         page.add("<h3>Balance-shaft bearings</h3>")
         rows = []

@@ -6,7 +6,6 @@ The oracles are written here from the kinematics (crank pin and piston pin in
 closed form, derivatives by spectral differentiation), not from the code
 under test."""
 
-import copy
 import tomllib
 from pathlib import Path
 

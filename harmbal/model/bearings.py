@@ -38,6 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..scene import Scene
 from ..scene.elements import Shaft
@@ -49,7 +50,7 @@ from .mechanism import reactions
 _PEAK_CHUNK = 1 << 23
 
 
-def lever_shares(bearings, x) -> np.ndarray:
+def lever_shares(bearings: ArrayLike, x: ArrayLike) -> np.ndarray:
     """Share of a load at each axial position ``x`` [m] carried by each
     bearing at ``bearings`` [m] (any order, distinct, at least two), by the
     statically determinate split: the two bearings around the load share it
@@ -79,10 +80,11 @@ def lever_shares(bearings, x) -> np.ndarray:
     return result
 
 
-def couple_shares(bearings, sense: int) -> np.ndarray:
-    """Loads on the bearings (bearing,) per unit transverse couple (w-plane):
-    the outermost two take ±M/(i·sense·(x_a − x_b)), the rest nothing (a
-    rigid shaft between them)."""
+def couple_shares(bearings: ArrayLike, sense: int) -> np.ndarray:
+    """Loads on the bearings [N per N m] (bearing,) that make a unit
+    transverse couple (w-plane) at axial positions ``bearings`` [m]: the
+    outermost two take ±M/(i·sense·(x_a − x_b)), the rest nothing (a rigid
+    shaft between them)."""
     bearings = np.asarray(bearings, dtype=float)
     a, b = int(np.argmin(bearings)), int(np.argmax(bearings))
     shares = np.zeros(bearings.size, dtype=complex)
@@ -92,7 +94,7 @@ def couple_shares(bearings, sense: int) -> np.ndarray:
     return shares
 
 
-def to_w(force_yz, sense: int) -> complex:
+def to_w(force_yz: tuple[float, float], sense: int) -> complex:
     """An engine-axes force (y, z) as a w-plane vector z − i·sense·y."""
     y, z = force_yz
     return complex(z, -sense * y)
@@ -199,7 +201,7 @@ def crank_train(scene: Scene, theta: np.ndarray, gas_force: np.ndarray | None) -
                       np.array(where, dtype=float), couple, rod_axis, crank_axis, gas_force)
 
 
-def main_bearings(train: CrankTrain, cylinder_x, bearings, static: list[tuple[complex, float]],
+def main_bearings(train: CrankTrain, cylinder_x: ArrayLike, bearings: ArrayLike, static: list[tuple[complex, float]],
                   sense: int) -> tuple[np.ndarray, np.ndarray]:
     """Loads of the crankshaft on each main bearing (on the block), w-plane.
 
@@ -235,7 +237,7 @@ def main_bearings(train: CrankTrain, cylinder_x, bearings, static: list[tuple[co
     return unit, constant
 
 
-def shaft_bearings(shaft: Shaft, bearings, theta: np.ndarray, static: list[tuple[complex, float]],
+def shaft_bearings(shaft: Shaft, bearings: ArrayLike, theta: np.ndarray, static: list[tuple[complex, float]],
                    sense: int) -> tuple[np.ndarray, np.ndarray]:
     """Loads of a balance shaft on its two bearings (on the block), w-plane.
 
@@ -244,6 +246,20 @@ def shaft_bearings(shaft: Shaft, bearings, theta: np.ndarray, static: list[tuple
     ratio), split by the lever rule; the couple unbalance C makes the
     couple n²·C·e^{inθ}, reacted by the pair; static loads (belt pull) split
     by the lever rule too.
+
+    Parameters
+    ----------
+    shaft : Shaft
+        The balance shaft (ratio, unbalances [kg m] with angles and axial
+        positions, couple unbalance [kg m²]).
+    bearings : array_like
+        Axial positions of its two bearings [m].
+    theta : ndarray
+        Crank angles [rad] (M,).
+    static : list of (complex, float)
+        Static forces on the shaft (w-plane [N], axial position [m]).
+    sense : int
+        +1 if the crank turns about +x, −1 otherwise.
 
     Returns
     -------
@@ -262,9 +278,8 @@ def shaft_bearings(shaft: Shaft, bearings, theta: np.ndarray, static: list[tuple
     return unit, constant
 
 
-def fastener_load(unbalance, speed, fasteners):
-    """Centrifugal load on each fastener of a rotating weight [N]:
-    F = m·x·ω²/n = U·ω²/n.
+def fastener_load(unbalance: ArrayLike, speed: ArrayLike, fasteners: ArrayLike):
+    """Centrifugal load on each fastener of a rotating weight: F = m·x·ω²/n = U·ω²/n.
 
     Parameters
     ----------
@@ -274,19 +289,37 @@ def fastener_load(unbalance, speed, fasteners):
         Its angular speed ω [rad/s] (the crank speed times the speed ratio).
     fasteners : array_like
         Number n of fasteners sharing the load.
+
+    Returns
+    -------
+    ndarray
+        Load per fastener [N], radial, outwards.
     """
     return np.asarray(unbalance) * np.asarray(speed) ** 2 / np.asarray(fasteners)
 
 
-def ramp_torque(inertia, alpha, end_speed):
-    """Torque [N m] that accelerates a shaft of moment of inertia ``inertia``
-    [kg m²] at ``alpha`` [rad/s²] (T = I·α), and the power [W] it takes at
-    ``end_speed`` [rad/s] (T·ω)."""
+def ramp_torque(inertia: ArrayLike, alpha: ArrayLike, end_speed: ArrayLike):
+    """Drive torque of a speed ramp.
+
+    Parameters
+    ----------
+    inertia : array_like
+        The shaft's moment of inertia about its axis [kg m²].
+    alpha : array_like
+        Its angular acceleration [rad/s²].
+    end_speed : array_like
+        Its speed at the end of the ramp [rad/s].
+
+    Returns
+    -------
+    torque, power : ndarray
+        T = I·α [N m] and the power T·ω at the end speed [W] (no friction).
+    """
     torque = np.asarray(inertia) * np.asarray(alpha)
     return torque, torque * np.asarray(end_speed)
 
 
-def affine_extremes(w2, unit: np.ndarray, constant) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def affine_extremes(w2: ArrayLike, unit: np.ndarray, constant: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Peak and mean of |w2·unit + constant| over the last axis, per speed.
 
     Parameters

@@ -8,7 +8,8 @@ The format is documented in ``docs/scenes.md`` and the method in ``docs/loads.md
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from .elements import Shaft
 from .interfaces import GRAVITY, ElementLoads, LoadsRequest, Ramp, StaticLoad

@@ -1,6 +1,7 @@
 """The main-bearing loads of the tractor (datasets/engines/tractor-3cyl-loads-gas.toml) by the
 statically determinate split that harmbal uses, against a continuous beam on rigid, aligned
-supports (the statically indeterminate textbook alternative), for docs/loads.md.
+supports (the statically indeterminate textbook alternative): the table of docs/loads.md and its
+figures docs/figures/loads-crank-pin.svg and docs/figures/loads-main-bearings.svg.
 
 The continuous beam: a uniform Euler–Bernoulli beam (its bending stiffness cancels out on rigid
 supports) through every main bearing, loaded by the crank-pin forces, the flywheel's weight and
@@ -41,7 +42,7 @@ def continuous_beam(supports, x, loads):
 
 def main():
     scene = hb.load_scene(ROOT / "datasets" / "engines" / "tractor-3cyl-loads-gas.toml")
-    n = 720
+    n = 2048  # samples per revolution, as hb.loads takes them for its peaks
     gas = gas_loads(scene, n)
     train = crank_train(scene, gas.theta, gas.force)
     w2 = scene.speeds[0] ** 2
@@ -62,6 +63,43 @@ def main():
               f"| {np.abs(determinate[j]).mean() / 1e3:.2f} | {np.abs(beam[j]).mean() / 1e3:.2f} |")
     total = np.abs(determinate.sum(axis=0) - beam.sum(axis=0)).max()
     print(f"\nLargest difference of the totals: {total:.2g} N (both carry the same loads)")
+    figures(scene, ds, determinate, beam)
+
+
+def figures(scene, ds, determinate, beam):
+    """The crank-pin polar diagram of cylinder 1 and the main bearings' polar diagrams by both methods."""
+    import matplotlib
+
+    from matplotlib.figure import Figure
+
+    from harmbal.reporting.plots import crank_pin_figure, save_figure
+
+    out = ROOT / "docs" / "figures"
+    with matplotlib.rc_context({"svg.hashsalt": "harmbal-loads", "svg.fonttype": "none"}):
+        # every 4th angle: smooth curves, a smaller file
+        save_figure(crank_pin_figure(ds.isel(angle=slice(None, None, 4)), cylinders=["1"]), out / "loads-crank-pin.svg")
+        fig = Figure(figsize=(12.0, 3.6), layout="constrained")
+        axes = fig.subplots(1, determinate.shape[0])
+        reach = 1.1 * max(np.abs(determinate).max(), np.abs(beam).max()) / 1e3
+        for j, ax in enumerate(axes):
+            for values, label, style in ((determinate[j, ::4], "statically determinate", "-"),
+                                         (beam[j, ::4], "continuous beam", "--")):
+                # w = F_z + i·F_t: t to the right, z up, as every harmbal diagram
+                ax.plot(np.append(values.imag, values.imag[0]) / 1e3, np.append(values.real, values.real[0]) / 1e3,
+                        ls=style, lw=1.0, label=label)
+            ax.set_xlim(-reach, reach)
+            ax.set_ylim(-reach, reach)
+            ax.set_aspect("equal")
+            ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+            ax.axvline(0, color="0.85", lw=0.6, zorder=0)
+            ax.set_title(f"bearing {j + 1} (x = {scene.loads.main_bearings[j] * 1e3:g} mm)", fontsize=9)
+            ax.set_xlabel("F_t [kN] (t = +y)", fontsize=8)
+            ax.tick_params(labelsize=7)
+        axes[0].set_ylabel("F_z [kN]", fontsize=8)
+        axes[-1].legend(fontsize=7, frameon=False, loc="lower right")
+        fig.suptitle("tractor-3cyl-loads-gas at 2460 rpm, full load: main-bearing loads over the working cycle",
+                     fontsize=10)
+        save_figure(fig, out / "loads-main-bearings.svg")
 
 
 if __name__ == "__main__":

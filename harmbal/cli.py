@@ -433,6 +433,9 @@ def _report(args) -> None:
         tree = _open(args.input)
         if "scene" not in tree.children or "scene_toml" not in tree["scene"].ds.attrs:
             raise _BadInput(f"{args.input}: archive has no /scene group with the scene text")
+        if "time" not in tree.children:
+            raise _BadInput(f"{args.input}: archive has no analysis (/time, /orders; 'harmbal loads -o' writes "
+                            "/loads only): report the scene, or an archive of 'harmbal run -o'")
     else:
         from .analysis import analyse
 

@@ -277,6 +277,10 @@ def test_cli_loads_prints_tables_writes_an_archive_and_refuses_bad_input(tmp_pat
     fresh = hb.loads(hb.load_scene(SINGLE))
     np.testing.assert_allclose(archived.main_bearing_force.values, fresh.main_bearing_force.values, rtol=1e-15)
     assert main(["show", str(out)]) == 0 and "Main bearings" in capsys.readouterr().out
+    # a loads archive holds no analysis to report: exit 2 with the reason, no page
+    page = tmp_path / "loads.html"
+    assert main(["report", str(out), "-o", str(page)]) == 2
+    assert "no analysis" in capsys.readouterr().err and not page.exists()
     # bad input: exit 2, the file and key named, nothing written
     data = SINGLE.read_text().replace('main_bearings = ["20 mm", "152 mm"]', 'main_bearings = ["20 mm"]')
     bad = tmp_path / "bad.toml"

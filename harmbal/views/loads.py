@@ -69,10 +69,11 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         co/counter, ``order`` in steps of 1/revolutions): w-plane phasors
         as in ``/orders`` (w = F_z + i·F_t).
 
-        With ``[[loads.element]]`` data, per ``shaft`` with bearings:
-        ``shaft_bearing_force`` [N] (``shaft_bearing`` 1/2 as listed, axis,
-        angle), its rotating amplitude ``shaft_bearing_rotating``, its static
-        part ``shaft_bearing_static`` and ``shaft_bearing_peak``; per
+        With ``[[loads.element]]`` data, per ``shaft`` with bearings
+        (``shaft_bearing_position`` [m]): ``shaft_bearing_force`` [N]
+        (``shaft_bearing`` 1/2 as listed, axis, angle), its rotating amplitude
+        ``shaft_bearing_rotating``, its static part ``shaft_bearing_static``
+        and ``shaft_bearing_peak``; per
         ``element``: ``fastener_load`` [N] at ``fastener_speed`` (each
         fastener's share of the weight's centrifugal force U·(nω)²) and, with
         a ``[loads.ramp]``, ``ramp_torque`` [N m] (I·n·α, on the shaft) and

@@ -385,3 +385,52 @@ def test_the_documented_blank():
     assert hb.unbalance_range(blank) == pytest.approx((0.233865e-3, 134.842e-3), rel=1e-5)
     sized = hb.size_blank(blank, 0.11569506063699182)  # the 117 mm plane's unbalance
     assert round(hb.fastener_load(sized.blank, 241.0, 2)) == 3360
+
+
+SHAFT = """
+[[balance_shaft]]
+label = "shaft"
+ratio = -1
+axis_position = ["70 mm", "0 mm"]
+[[balance_shaft.unbalance]]
+angle = "90 deg"
+axial_position = "86 mm"
+density = "7850 kg/m^3"
+thickness = "40 mm"
+[[balance_shaft.unbalance.shape]]
+kind = "half_disc"
+radius = "50 mm"
+direction = "20 deg"
+[[balance_shaft.unbalance]]
+unbalance = "0.01 kg m"
+axial_position = "10 mm"
+
+[[lanchester_pair]]
+label = "pair"
+order = 2
+angle = "10 deg"
+phase = "5 deg"
+density = "7850 kg/m^3"
+thickness = "20 mm"
+[[lanchester_pair.shape]]
+kind = "sector"
+start_angle = "-30 deg"
+end_angle = "60 deg"
+outer_radius = "40 mm"
+"""
+
+
+def test_balance_shaft_and_lanchester_weights_from_blanks():
+    shafts = {s.label: s for s in scene_from_text(ENGINE + SHAFT).shafts}
+    weight, plain = shafts["shaft"].unbalances
+    half_disc = 7850 * 0.04 * 2 / 3 * 0.05**3  # ⅔R³ per unit thickness and density
+    assert weight.unbalance == pytest.approx(half_disc, rel=1e-14)
+    assert weight.angle == pytest.approx(math.radians(110), rel=1e-14) and weight.x == pytest.approx(0.086)
+    assert plain.unbalance == 0.01
+    sector = 7850 * 0.02 * 2 / 3 * math.sin(math.radians(45)) * 0.04**3  # half-angle 45°, axis at 15°
+    plus, minus = shafts["pair (+2×)"], shafts["pair (−2×)"]
+    assert plus.unbalances[0].unbalance == pytest.approx(sector, rel=1e-14)
+    assert plus.unbalances[0].angle == pytest.approx(math.radians(10 + 15 + 5), rel=1e-14)
+    assert minus.unbalances[0].angle == pytest.approx(math.radians(10 + 15 - 5), rel=1e-14)
+    with pytest.raises(SceneError, match=r"balance_shaft\[1\].unbalance\[2\] = .*not both"):
+        scene_from_text(ENGINE + SHAFT.replace('unbalance = "0.01 kg m"', 'unbalance = "0.01 kg m"\nthickness = "1 mm"'))

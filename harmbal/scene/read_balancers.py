@@ -17,7 +17,9 @@ _PRODUCT_KEYS = {"xy", "xz", "convention"}
 _SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia"}
 _CRANKSHAFT_KEYS = {"mass", "cg_offset", "axial_position", "products_of_inertia"}
 _LANCHESTER_KEYS = {"label", "order", "unbalance", "mass", "radius", "angle", "phase", "axial_position", "heights",
-                    "lateral"}
+                    "lateral"} | BLANK_KEYS
+#: Keys of one of a balance shaft's unbalances: mass × radius or a blank.
+_SHAFT_UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle", "axial_position"} | BLANK_KEYS
 _LEVER_KEYS = {"label", "axial_position", "pin_radius", "pin_angle", "pivot", "rocker_length", "coupler_length",
                "assembly", "rocker", "coupler"}
 _LINK_KEYS = {"mass", "cg", "inertia"}
@@ -90,20 +92,41 @@ class BalancerTables(ShapeTables):
         for path, entry in self.array(raw, "counterweight"):
             self.unknown(entry, path, _COUNTERWEIGHT_KEYS)
             label = self.string(entry, "label", path, f"counterweight {len(shafts) + 1}")
-            angle = self.quantity(entry, "angle", path, "angle", default=0.0)
-            blank = self.blank(entry, path)
-            if blank is None and not BLANK_KEYS & set(entry):
-                u = self.unbalance_size(entry, path)
-            elif {"unbalance", "mass", "radius"} & set(entry):
-                self.fail(path, sorted(entry), "give the unbalance (or mass and radius) or a blank (density, "
-                          "thickness and [[...shape]] tables), not both")
-                u = math.nan
-            else:  # a blank: its unbalance, turned by its own direction in the blank's frame
-                u = blank.unbalance if blank is not None else math.nan
-                angle += blank.unbalance_angle if blank is not None else 0.0
+            u, angle = self.weight(entry, path)
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
             shafts.append(Shaft(label, 1, 0.0, 0.0, (ShaftUnbalance(u, angle, x),)))
         return tuple(shafts)
+
+    def weight(self, entry: Mapping, path: str) -> tuple[float, float]:
+        """Size [kg m] and angle [rad] of a static unbalance given as
+        ``unbalance`` or ``mass`` × ``radius`` at ``angle``, or as a blank
+        whose u axis points at ``angle`` (its unbalance then turned by its own
+        direction in the blank's frame)."""
+        angle = self.quantity(entry, "angle", path, "angle", default=0.0)
+        if not BLANK_KEYS & set(entry):
+            return self.unbalance_size(entry, path), angle
+        if {"unbalance", "mass", "radius"} & set(entry):
+            self.fail(path, sorted(entry), "give the unbalance (or mass and radius) or a blank (density, "
+                      "thickness and [[...shape]] tables), not both")
+            return math.nan, angle
+        blank = self.blank(entry, path)
+        if blank is None:
+            return math.nan, angle
+        return blank.unbalance, angle + blank.unbalance_angle
+
+    def shaft_unbalances(self, raw: Any, path: str) -> tuple[ShaftUnbalance, ...]:
+        """A balance shaft's static unbalances (a table or an array of tables), each as mass × radius or a blank."""
+        entries = [raw] if isinstance(raw, Mapping) else raw
+        if not isinstance(entries, list) or not all(isinstance(u, Mapping) for u in entries):
+            self.fail(path, raw, "must be a table or an array of tables")
+            return ()
+        result = []
+        for i, entry in enumerate(entries):
+            where = path if isinstance(raw, Mapping) else f"{path}[{i + 1}]"
+            self.unknown(entry, where, _SHAFT_UNBALANCE_KEYS)
+            u, angle = self.weight(entry, where)
+            result.append(ShaftUnbalance(u, angle, self.quantity(entry, "axial_position", where, "length", default=0.0)))
+        return tuple(result)
 
     def balance_shafts(self, raw: Any, sense: int) -> tuple[Shaft, ...]:
         shafts = []
@@ -118,8 +141,7 @@ class BalancerTables(ShapeTables):
                 self.fail(_join(path, "ratio"), ratio, "must be a non-zero integer (negative turns against the crank)")
                 ratio = 1
             y, z = self.position(entry, "axis_position", path)
-            unbalances = tuple(ShaftUnbalance(u.unbalance, u.angle, u.x) for u in
-                               self.unbalances(entry.get("unbalance", []), _join(path, "unbalance"), "axial_position"))
+            unbalances = self.shaft_unbalances(entry.get("unbalance", []), _join(path, "unbalance"))
             shafts.append(Shaft(str(label), ratio, y, z, unbalances, self.couple(entry, path, sense)))
         return tuple(shafts)
 
@@ -135,8 +157,7 @@ class BalancerTables(ShapeTables):
             else:
                 self.fail(_join(path, "order"), _MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
                 order = 1
-            u = self.unbalance_size(entry, path)
-            angle = self.quantity(entry, "angle", path, "angle", default=0.0)
+            u, angle = self.weight(entry, path)
             phase = self.quantity(entry, "phase", path, "angle", default=0.0)
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
             heights = self.quantity_list(entry, "heights", path, "length", 2, [0, 0])

@@ -372,3 +372,12 @@ def test_lever_balancer_couplers_load_the_main_bearings():
               + _transverse_moment(pivot, [lever.x]))
     sim = hb.simulate(scene, samples_per_rev=N)
     np.testing.assert_allclose(moment, sim.moment.sel(axis=["y", "z"]).values, atol=1e-9 * scale * 0.3)
+
+
+def test_a_sweeps_loads_round_trip_through_an_archive(tmp_path):
+    scene = hb.load_scene(SINGLE).with_speeds([100.0, 200.0, 250.0])
+    tree = hb.analyse(scene)
+    hb.save(tree, tmp_path / "sweep.nc")
+    back = hb.open_archive(tmp_path / "sweep.nc")["loads"].ds
+    for name, values in tree["loads"].ds.data_vars.items():
+        np.testing.assert_allclose(back[name].values, values.values, rtol=1e-13, err_msg=name)

@@ -101,7 +101,8 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
 
     def affine(name, dims, unit, constant, attrs, peaks=True):
         """The variable ω²·unit + constant, and its peak, peak angle and mean magnitude per speed."""
-        data[name] = speeds.variable(dims, unit, attrs, constant=constant)
+        # Without gas or static loads the variable is a pure ω² product, archived as one like /time's.
+        data[name] = speeds.variable(dims, unit, attrs, constant=constant if np.any(constant) else None)
         if not peaks:
             return
         # Magnitudes of vector loads: the component axis is the one before the angle.
@@ -169,10 +170,11 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
             co, counter = rotating_split(phasors(w.real, backend)[..., :count], phasors(w.imag, backend)[..., :count])
             return np.stack([co, counter], axis=-2)
 
+        fixed = split(constant)
         data["main_bearing_order"] = speeds.variable(("bearing", "rotation", "order"), split(unit), {
             "units": "N", "long_name": "order phasors of the main-bearing force, w = F_z + i·F_t",
             "description": "w(θ) = Σ_k (P_co e^{ikθ} + P_counter e^{−ikθ}); order 0 is the mean force (co)"},
-            constant=split(constant))
+            constant=fixed if np.any(fixed) else None)
     if request is not None and request.elements:
         data.update(_elements(scene, theta, speeds, coords))
     attrs = attributes(scene, n)

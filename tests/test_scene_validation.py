@@ -133,3 +133,14 @@ def test_lever_lengths_far_out_of_scale_are_reported_not_raised(length):
                   (ENGINES / "lever-single.toml").read_text(encoding="utf-8"))
     with pytest.raises(SceneError, match=r"lever_balancer\[1\].*cannot close"):
         scene_from_text(text, "lever.toml")
+
+
+def test_orders_beyond_the_sampling_harmbal_chooses_are_refused():
+    """A Lanchester pair at ±10²⁰× or a max_order of 10⁹ cannot be sampled: a SceneError naming the key
+    instead of a MemoryError at analysis."""
+    text = (ENGINES / "inline-4-lanchester.toml").read_text(encoding="utf-8")
+    with pytest.raises(SceneError, match=r"balancer elements = 99999999999999999999: .* below 65536"):
+        scene_from_text(text.replace("order = 2\n", "order = 99999999999999999999\n", 1), "pair.toml")
+    with pytest.raises(SceneError, match=r"sampling.max_order = 1000000000: must be at most 16384"):
+        scene_from_text(text + "\n[sampling]\nmax_order = 1000000000\n", "orders.toml")
+    scene_from_text(text + "\n[sampling]\nmax_order = 16384\nsamples_per_rev = 40000\n", "given.toml")

@@ -8,16 +8,13 @@ import math
 import numpy as np
 
 from ..scene import Scene
+from ..scene.schema import MAX_SAMPLES
 from .kinematics import decay_rate
 from .linkage import decay_rate as linkage_decay_rate
 
 
 #: Factor on the extrapolated tail: the further aliases and the fit's error (see aliasing_estimate).
 ALIAS_SAFETY = 4
-
-
-#: Most samples per revolution the accuracy setting chooses.
-MAX_SAMPLES = 1 << 16
 
 
 #: Fewest samples per revolution when gas is simulated (0.5°): pressure traces are smooth only to

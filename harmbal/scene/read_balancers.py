@@ -11,7 +11,7 @@ from typing import Any, Mapping
 from .elements import (ASSEMBLY_MODES, PRODUCT_CONVENTIONS, TRANSMISSION_WARNING, LeverBalancer, LinkBody, Shaft,
                        ShaftUnbalance, closure, closure_message, couple_from_moment, couple_from_products)
 from .read_shapes import BLANK_KEYS, ShapeTables
-from .schema import _MISSING, Model, Sampling, _join
+from .schema import _MISSING, MAX_SAMPLES, Model, Sampling, _join
 
 _PRODUCT_KEYS = {"xy", "xz", "convention"}
 _SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia"}
@@ -44,6 +44,10 @@ class BalancerTables(ShapeTables):
             self.fail("sampling.samples_per_rev", sampling.samples_per_rev,
                       f"a balancer element turning at {fastest}× would alias into the orders kept: must be more "
                       f"than its |ratio| + max_order = {fastest + sampling.max_order}")
+        if sampling.samples_per_rev is None and fastest + sampling.max_order >= MAX_SAMPLES:
+            self.fail("balancer elements", fastest,
+                      f"an element turning at {fastest}× cannot be sampled without aliasing into the orders kept: "
+                      f"|ratio| + max_order must stay below {MAX_SAMPLES} samples per revolution")
         labels = [s.label for s in shafts] + [lever.label for lever in levers]
         for label in sorted({x for x in labels if labels.count(x) > 1}):
             self.fail("balancer elements", label, "two balancer elements have this label; labels must be unique")

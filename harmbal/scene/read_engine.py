@@ -8,7 +8,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, EFFECTS, INERTIA_EFFECTS, MAX_SPEEDS,
+from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, EFFECTS, INERTIA_EFFECTS, MAX_SAMPLES, MAX_SPEEDS,
                      PISTON_MODELS, ROD_MODELS, ROTATIONS, Cylinder, Model, Sampling, _closest)
 
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
@@ -141,6 +141,10 @@ class EngineTables:
                 self.fail("sampling.accuracy", table["accuracy"], "must lie in [1e-16, 0.1) (relative error)")
         elif samples is None:
             accuracy = DEFAULT_ACCURACY
+        if samples is None and max_order is not None and 4 * max_order > MAX_SAMPLES:
+            self.fail("sampling.max_order", max_order,
+                      f"must be at most {MAX_SAMPLES // 4} when harmbal chooses the sampling (it samples at least "
+                      f"4 × max_order and at most {MAX_SAMPLES} per revolution); or give samples_per_rev")
         if samples is not None and max_order is not None and samples < 2 * max_order + 2:
             self.fail("sampling.samples_per_rev", samples,
                       f"must be at least 2*max_order + 2 = {2 * max_order + 2} to resolve order {max_order}")

@@ -32,6 +32,9 @@ ROTATIONS = ("clockwise", "counterclockwise")
 
 DEFAULT_ACCURACY = 1e-12
 DEFAULT_MAX_ORDER = 12
+#: Most samples per revolution the accuracy setting chooses (harmbal.model.sampling); what the
+#: scene asks for must be resolvable within it.
+MAX_SAMPLES = 1 << 16
 #: Most speeds a sweep may ask for (one evaluation serves them all; 10⁶ keeps the Datasets ~1 GB at most).
 MAX_SPEEDS = 1_000_000
 

@@ -434,3 +434,67 @@ def test_balance_shaft_and_lanchester_weights_from_blanks():
     assert minus.unbalances[0].angle == pytest.approx(math.radians(10 + 15 - 5), rel=1e-14)
     with pytest.raises(SceneError, match=r"balance_shaft\[1\].unbalance\[2\] = .*not both"):
         scene_from_text(ENGINE + SHAFT.replace('unbalance = "0.01 kg m"', 'unbalance = "0.01 kg m"\nthickness = "1 mm"'))
+
+
+SHAFT_DESIGN = """
+[design]
+orders = [1]
+cancel = ["force", "moment"]
+
+[[design.counterweights]]
+label = "counterweight"
+planes = ["55 mm", "117 mm"]
+balance_factor = 0.5
+
+[[design.balance_shaft]]
+label = "left shaft"
+ratio = -1
+axis_position = ["70 mm", "0 mm"]
+planes = ["86 mm"]
+density = "7850 kg/m^3"
+thickness = "40 mm"
+[[design.balance_shaft.shape]]
+kind = "half_disc"
+solve = "radius"
+solve_range = ["10 mm", "100 mm"]
+
+[[design.lanchester_pair]]
+label = "pair"
+order = 2
+axial_position = "86 mm"
+lateral = ["70 mm", "-70 mm"]
+density = "7850 kg/m^3"
+thickness = "20 mm"
+[[design.lanchester_pair.shape]]
+kind = "sector"
+outer_radius = "40 mm"
+solve = "half_angle"
+[[design.lanchester_pair.shape]]
+kind = "fastener"
+mass = "0.01 kg"
+radius = "20 mm"
+angle = "10 deg"
+"""
+
+
+def test_shafts_and_pairs_are_written_as_sized_blanks():
+    # One −1× shaft cancels the counter-rotating first-order force (not its moment: a plane too few),
+    # the pair the second order; every designed unbalance is written as a blank that loads back equal.
+    design = hb.design(scene_from_text(ENGINE + SHAFT_DESIGN.replace('cancel = ["force", "moment"]',
+                                                                     'cancel = ["force"]\norders = [1, 2]')
+                                       .replace("orders = [1]\n", "")))
+    names = list(design.dataset.element.values)
+    wanted = dict(zip(names, design.dataset.unbalance.values))
+    written = {s.label: s for s in design.elements}
+    assert written["left shaft"].unbalances[0].unbalance == pytest.approx(wanted["left shaft (−1×) at x = 86 mm"],
+                                                                        rel=1e-12)
+    for side in ("+", "−"):
+        assert written[f"pair ({side}2×)"].unbalances[0].unbalance == pytest.approx(wanted[f"pair ({side}2×)"],
+                                                                                 rel=1e-12)
+    blanks = design.dataset.attrs["blanks"]
+    # docs/shapes.md quotes this shaft weight.
+    assert ("left shaft at x = 86 mm: blank sized, sector (shape 1) outer_radius = 76.6726 mm; mass 2.89955 kg, "
+            "centre of mass at 32.5409 mm") in blanks
+    assert "pair: blank sized, sector (shape 1) half_angle = " in blanks
+    assert "[[balance_shaft.unbalance.shape]]" in design.text and "[[lanchester_pair.shape]]" in design.text
+    assert bool(hb.verify(design.scene).passed.all())

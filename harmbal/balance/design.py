@@ -264,7 +264,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     messages += _height_hints(request, values, predicted, ok, (kmax, sense, ref), w2, BALANCED_RTOL * moment_scale)
     messages += _bound_messages(request, values)
 
-    blanks = _sized_blanks(request, values, BALANCED_RTOL * force_scale)
+    blanks: dict[str, SizedBlank] = {}  # filled as the elements are written
     text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
                        negligible=BALANCED_RTOL * force_scale, blanks=blanks)
     try:
@@ -478,22 +478,6 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np
 # The output scene
 
 
-def _sized_blanks(request: DesignRequest, values, negligible: float) -> dict[str, SizedBlank]:
-    """Each designed counterweight whose candidate gives a blank, by its
-    label: the blank with its free dimension sized to the plane's unbalance."""
-    sized = {}
-    for c in request.candidates:
-        if c.kind != "counterweights" or c.blank is None:
-            continue
-        for label, v in zip(c.names(), values[c.label]):
-            if abs(v) > negligible:
-                try:
-                    sized[label] = size_blank(c.blank, abs(v))
-                except DesignError as exc:
-                    raise DesignError(f"{label}: {exc}") from None
-    return sized
-
-
 def _blank_note(label: str, sized: SizedBlank) -> str:
     """The sized dimension in words, for the drawing office."""
     index, name = sized.blank.solve
@@ -508,14 +492,27 @@ def _elements_toml(request: DesignRequest, values, negligible: float,
                    blanks: dict[str, SizedBlank]) -> tuple[dict, list[str]]:
     """The designed elements as scene tables, and comment lines with rounded
     values for the drawing office. Unbalances below ``negligible`` [kg m]
-    are left out (an element the design does not need); counterweights in
-    ``blanks`` are written as their sized blank, turned so that its
-    unbalance points the designed way."""
+    are left out (an element the design does not need). A candidate with a
+    blank has each of its unbalances written as the blank sized to it,
+    turned so that its unbalance points the designed way; the sized blanks
+    are put in ``blanks`` by name."""
     tables: dict[str, list] = {"counterweight": [], "balance_shaft": [], "lanchester_pair": []}
     notes = []
 
-    def unbalance(p: complex, x: float) -> dict:
-        return {"unbalance": quantity_text(abs(p), "kg m"), "angle": angle_text(np.angle(p)), "axial_position": length_text(x)}
+    def fitted(c, name: str, p: complex) -> dict:
+        """The keys of the unbalance p: its size and angle, or c's blank sized to it."""
+        if c.blank is None:
+            return {"unbalance": quantity_text(abs(p), "kg m"), "angle": angle_text(np.angle(p))}
+        try:
+            sized = size_blank(c.blank, abs(p))
+        except DesignError as exc:
+            raise DesignError(f"{name}: {exc}") from None
+        blanks[name] = sized
+        notes.append(_blank_note(name, sized))
+        return {"angle": angle_text(np.angle(p) - sized.blank.unbalance_angle), **blank_table(sized.blank)}
+
+    def unbalance(c, name: str, p: complex, x: float) -> dict:
+        return {**fitted(c, name, p), "axial_position": length_text(x)}
 
     def note(label: str, p: complex, where: str) -> None:
         notes.append(f"{label}: {abs(p) * 1e3:.5g} kg mm at {math.degrees(np.angle(p)) % 360:.2f}° {where}")
@@ -527,27 +524,21 @@ def _elements_toml(request: DesignRequest, values, negligible: float,
             continue
         if c.kind == "counterweights":
             for label, x, v in zip(c.names(), c.planes, vs):
-                if abs(v) > negligible and label in blanks:
-                    blank = blanks[label].blank
-                    tables["counterweight"].append({"label": label,
-                                                    "angle": angle_text(np.angle(v) - blank.unbalance_angle),
-                                                    "axial_position": length_text(x), **blank_table(blank)})
+                if abs(v) > negligible:
                     note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")
-                    notes.append(_blank_note(label, blanks[label]))
-                elif abs(v) > negligible:
-                    tables["counterweight"].append({"label": label, **unbalance(v, x)})
-                    note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")
+                    tables["counterweight"].append({"label": label, **unbalance(c, label, v, x)})
         elif c.kind == "lanchester_pair" and abs(abs(vs[0]) - abs(vs[1])) <= 1e-9 * max(map(abs, vs)):
             # Equal unbalances: a pair with direction α and phasing δ.
             plus, minus = vs
             phase = float(np.angle(plus / minus)) / 2
             angle = float(np.angle(minus)) + phase
-            tables["lanchester_pair"].append({
-                "label": c.label, "order": c.ratio, "unbalance": quantity_text((abs(plus) + abs(minus)) / 2, "kg m"),
-                "angle": angle_text(angle), "phase": signed_angle_text(phase), "axial_position": length_text(c.planes[0]),
-                "heights": [length_text(h) for h in c.heights], "lateral": [length_text(y) for y in c.lateral]})
             notes.append(f"{c.label} (±{c.ratio}×): {abs(plus) * 1e3:.5g} kg mm per shaft, standing vector along "
                          f"{math.degrees(angle) % 360:.2f}°, phasing {round(math.degrees(phase), 2) + 0.0:.2f}°")
+            size = (abs(plus) + abs(minus)) / 2
+            tables["lanchester_pair"].append({
+                "label": c.label, "order": c.ratio, **fitted(c, c.label, size * complex(np.cos(angle), np.sin(angle))),
+                "phase": signed_angle_text(phase), "axial_position": length_text(c.planes[0]),
+                "heights": [length_text(h) for h in c.heights], "lateral": [length_text(y) for y in c.lateral]})
         else:
             if c.kind == "lanchester_pair":  # unequal unbalances: two separate shafts
                 shafts = [(name, ratio, y, z, [(v, c.planes[0])]) for name, ratio, y, z, v in zip(
@@ -563,7 +554,8 @@ def _elements_toml(request: DesignRequest, values, negligible: float,
                 if parts:
                     tables["balance_shaft"].append({"label": label, "ratio": ratio,
                                                     "axis_position": [length_text(y), length_text(z)],
-                                                    "unbalance": [unbalance(p, x) for p, x in parts]})
+                                                    "unbalance": [unbalance(c, f"{label} at x = {x * 1e3:.6g} mm", p, x)
+                                                                  for p, x in parts]})
     return {k: v for k, v in tables.items() if v}, notes
 
 

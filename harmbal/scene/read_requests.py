@@ -17,9 +17,9 @@ _DESIGN_KEYS = {"orders", "cancel", "objective", "peak", "counterweights", "bala
 _LEVER_DESIGN_KEYS = {"label", "signals", "weights", "mass", "cg_x", "cg_y"}
 _CANDIDATE_KEYS = {
     "counterweights": {"label", "planes", "balance_factor", "max_unbalance"} | BLANK_KEYS,
-    "balance_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
-    "moment_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"},
-    "lanchester_pair": {"label", "order", "axial_position", "heights", "lateral", "max_unbalance"},
+    "balance_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"} | BLANK_KEYS,
+    "moment_shaft": {"label", "ratio", "axis_position", "planes", "max_unbalance"} | BLANK_KEYS,
+    "lanchester_pair": {"label", "order", "axial_position", "heights", "lateral", "max_unbalance"} | BLANK_KEYS,
 }
 _VERIFY_KEYS = {"orders", "cancel", "speed", "tolerance", "predicted"}
 _PREDICTED_KEYS = {"order"} | {name for name, _ in COMPONENTS}
@@ -119,13 +119,15 @@ class RequestTables:
             x = self.quantity(entry, "axial_position", path, "length", default=0.0)
             heights = self.quantity_list(entry, "heights", path, "length", 2, [0, 0])
             lateral = self.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
-            return Candidate(kind, label, order, (x,), heights=heights, lateral=lateral, max_unbalance=bound)
+            return Candidate(kind, label, order, (x,), heights=heights, lateral=lateral, max_unbalance=bound,
+                             blank=self.blank(entry, path, sizing=True))
         y, z = self.position(entry, "axis_position", path)
         planes = self.lengths(entry, "planes", path, 2 if kind == "moment_shaft" else None)
         ratio = self.ratio(entry, "ratio", path)
         if abs(ratio) > max_order:
             self.fail(_join(path, "ratio"), ratio, f"|ratio| must not exceed sampling.max_order = {max_order}")
-        return Candidate(kind, label, ratio, planes, y=y, z=z, max_unbalance=bound)
+        return Candidate(kind, label, ratio, planes, y=y, z=z, max_unbalance=bound,
+                         blank=self.blank(entry, path, sizing=True))
 
     def orders(self, table: Mapping, path: str, max_order: int) -> tuple[int, ...]:
         raw = table.get("orders", _MISSING)

@@ -85,8 +85,8 @@ class Candidate:
       direction α, phasing δ.
 
     ``max_unbalance`` [kg m] bounds each unknown's size in the peak objective.
-    ``blank`` (counterweights only) is a counterweight blank with one free
-    dimension, sized in each plane to the unbalance designed for it.
+    ``blank`` is a blank with one free dimension (:mod:`.shapes`), sized to
+    each unbalance designed for the element and written as its shape.
     """
 
     kind: str

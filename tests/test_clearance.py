@@ -189,3 +189,62 @@ def test_no_outlines_no_pairs_and_the_sampling_is_checked():
     assert ds.sizes["pair"] == 0 and ds.part_a.dtype.kind == "U"
     with pytest.raises(ValueError, match="at least 8"):
         hb.clearance(scene, samples=4)
+
+
+def _twin(bank2, throw2):
+    return _engine().replace('''[[cylinder]]
+label = "1"
+throw = "0 deg"
+axial_position = "86 mm"''', f'''[[cylinder]]
+label = "front"
+axial_position = "0 mm"
+[[cylinder]]
+label = "rear"
+throw = "{throw2} deg"
+bank = "{bank2} deg"
+axial_position = "100 mm"''')
+
+
+@pytest.mark.parametrize("bank2, throw2", [(0, 180), (90, 0), (60, 300)])
+def test_parts_of_different_cylinders_meet_in_the_engine_frame(bank2, throw2):
+    # A circle on the crank given in the rear cylinder's crank frame (angle a) against a stud given in the
+    # front cylinder's block frame (angle b; that cylinder is upright): the closed form of the first test with
+    # the rear throw's angle: they line up at θ = b − a − throw₂. A stud given in the rear cylinder's block
+    # frame (angle b from its axis) is at b + bank₂ in the engine, met at θ = b + bank₂ − a − throw₂.
+    radius, a, d, b, r1, r2 = 0.085, 0.4, 0.16, 2.2, 0.01, 0.03
+    x = _mm(0.04, 0.06)
+    text = _twin(bank2, throw2) + _outline("weight", "crank", "circle", cylinder=2, axial_range=x,
+                                           centre=_mm(radius * math.cos(a), radius * math.sin(a)), radius="10 mm")
+    text += _outline("stud front", "block", "circle", cylinder=1, axial_range=x,
+                     centre=_mm(d * math.cos(b), d * math.sin(b)), radius="30 mm")
+    text += _outline("stud rear", "block", "circle", cylinder="rear", axial_range=_mm(0.05, 0.2),
+                     centre=_mm(d * math.cos(b), d * math.sin(b)), radius="30 mm")
+    text += _outline("rod front", "rod", "circle", cylinder=1, radius="40 mm")  # no axial range: its own plane
+    text += _outline("rod rear", "rod", "circle", cylinder=2, radius="40 mm")
+    ds = hb.clearance(scene_from_text(text))
+    # Without an axial range a part meets only the parts of its own cylinder's plane.
+    assert set(ds.pair.values) == {"weight / stud front", "weight / stud rear", "weight / rod rear",
+                                   "stud front / rod front", "stud rear / rod rear"}
+    expected = abs(d - radius) - r1 - r2
+    throw, bank = math.radians(throw2), math.radians(bank2)
+    for pair, angle in (("weight / stud front", b - a - throw), ("weight / stud rear", b + bank - a - throw)):
+        hit = ds.sel(pair=pair)
+        assert float(hit.min_distance) == pytest.approx(expected, rel=1e-12)
+        assert abs(np.angle(np.exp(1j * (float(hit.angle) - angle)))) < 1e-6
+    rear = ds.sel(pair="weight / stud rear")
+    assert (str(rear.cylinder_a.values), str(rear.cylinder_b.values)) == ("rear", "rear")
+
+
+def test_rods_of_two_cylinders_are_two_bodies():
+    # Fork-and-blade style: both rods' big ends on one pin at the same axial range overlap: a collision.
+    text = _twin(90, 0) + _outline("big end front", "rod", "circle", cylinder=1, radius="40 mm",
+                                   axial_range=_mm(0.0, 0.03))
+    text += _outline("big end rear", "rod", "circle", cylinder=2, radius="40 mm", axial_range=_mm(0.02, 0.05))
+    text += _outline("web", "crank", "circle", cylinder=1, radius="5 mm", axial_range=_mm(0.0, 0.05))
+    text += _outline("web rear", "crank", "circle", cylinder=2, radius="5 mm", axial_range=_mm(0.0, 0.05))
+    ds = hb.clearance(scene_from_text(text))
+    hit = ds.sel(pair="big end front / big end rear")
+    # Two throws at 0° on crank pins 100 mm apart axially share no pin here: the big ends sit on their own
+    # pins, both at radius 60 mm and angle θ + 0: concentric, overlapping by 80 mm.
+    assert bool(hit.collision) and float(hit.min_distance) == pytest.approx(-0.08, abs=1e-12)
+    assert "web / web rear" not in set(ds.pair.values)  # one crank

@@ -6,9 +6,10 @@ Each part is an :class:`~harmbal.scene.shapes.Outline`: a convex polygon
 frame of a body: the crank, the con-rod (moved by the exact slider-crank of
 :func:`harmbal.model.kinematics.slider_crank`), the piston, a balance shaft
 turning at its speed ratio, or the block. Positions are complex numbers
-c + i·n in the cylinder's plane frame (c along the cylinder axis, n 90°
-ahead in the direction of rotation), so a body's motion is a translation
-plus a rotation factor, vectorised over crank angles.
+w = z + i·t in the engine's plane normal to the crank axis (t = −sense·y,
+90° ahead of +z in the direction of rotation), so a body's motion is a
+translation plus a rotation factor, vectorised over crank angles, and the
+parts of different cylinders are in one picture.
 
 Signed distance of two convex sets grown by radii r₁, r₂ (exact, no
 shapely): d(P, Q) − r₁ − r₂, where d is
@@ -25,9 +26,10 @@ Growing both sets by discs changes the signed distance by exactly −r₁ − r�
 (the support function of P ⊕ B_r is h_P + r), so circles and rounded bars
 are exact too. A negative distance is an overlap: a collision.
 
-Over a revolution the distance of every pair of parts on different bodies in
-the same cylinder plane is sampled, and each sampled local minimum is refined
-by a bounded scalar minimisation in the crank angle.
+Over a revolution the distance of every pair of parts that can meet
+(:meth:`~harmbal.scene.shapes.Outline.meets`) is sampled, and the sampled
+local minima that can hold the smallest are refined by a golden-section
+search in the crank angle.
 """
 
 from __future__ import annotations
@@ -50,9 +52,11 @@ def _points(outline: Outline) -> np.ndarray:
 
 
 def body_motion(scene: Scene, body: str, plane: int, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Origin and rotation factor of a body's frame in its cylinder's plane
-    frame, at crank angles θ [rad]: a point (u, v) of the body is at
-    origin + (u + i·v)·rotation (complex c + i·n [m]).
+    """Origin and rotation factor of a body's frame in the engine's plane
+    normal to the crank axis, at crank angles θ [rad]: a point (u, v) of the
+    body is at origin + (u + i·v)·rotation, as the complex w = z + i·t [m]
+    (t = −sense·y: 90° ahead of +z in the direction of rotation, so that
+    the picture is the same for either rotation sense).
 
     Parameters
     ----------
@@ -74,23 +78,20 @@ def body_motion(scene: Scene, body: str, plane: int, theta: np.ndarray) -> tuple
     theta = np.asarray(theta, dtype=float)
     psi = theta + cyl.throw - cyl.bank
     ones = np.ones_like(theta)
+    bank = np.exp(1j * cyl.bank)  # the cylinder frame (c along its axis, n ahead) turned into the w-plane
     if body == "block":
-        return 0j * ones, ones + 0j
+        return 0j * ones, bank * ones
     if body == "crank":
-        return 0j * ones, np.exp(1j * psi)
+        return 0j * ones, np.exp(1j * psi) * bank
     if body in ("rod", "piston"):
         sc = slider_crank(psi, cyl.crank_radius, cyl.rod_length, cyl.offset)
         big_end = sc.a[0] + 1j * sc.a[1]
         small_end = sc.b + 1j * sc.e
         if body == "piston":
-            return small_end, ones + 0j
-        return big_end, (small_end - big_end) / cyl.rod_length
+            return small_end * bank, bank * ones
+        return big_end * bank, (small_end - big_end) / cyl.rod_length * bank
     shaft = next(s for s in scene.shafts if s.label == body)
-    # The shaft's axis and angles in the w-plane (w = z + i·t, t = −sense·y: 90° ahead of z in the
-    # direction of rotation), turned into the cylinder's frame by its bank angle.
-    to_cylinder = np.exp(-1j * cyl.bank)
-    axis = complex(shaft.z, -scene.sense * shaft.y) * to_cylinder
-    return axis * ones, np.exp(1j * shaft.ratio * theta) * to_cylinder
+    return complex(shaft.z, -scene.sense * shaft.y) * ones, np.exp(1j * shaft.ratio * theta)
 
 
 def _segment_point(a: np.ndarray, b: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -189,7 +190,7 @@ def _minimum(scene: Scene, first: Outline, second: Outline, samples: int) -> tup
     d = pair_distance(scene, first, second, theta)
     # Round-off in the positions is ~1e-16 of the mechanism's size; a distance that varies less is constant.
     size = max(float(np.abs(_points(o)).max()) + o.radius for o in (first, second))
-    size += scene.cylinders[first.plane].crank_radius + scene.cylinders[first.plane].rod_length
+    size += max(scene.cylinders[o.plane].crank_radius + scene.cylinders[o.plane].rod_length for o in (first, second))
     if d.max() - d.min() <= 1e-12 * size:  # constant: no angle is special
         return float(d.min()), 0.0
     before, after = np.roll(d, 1), np.roll(d, -1)
@@ -235,11 +236,12 @@ def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
     Returns
     -------
     xarray.Dataset
-        Over ``pair`` (every two outlines on different bodies in the same
-        cylinder plane whose axial ranges overlap): ``min_distance`` [m] (negative: overlap, a
+        Over ``pair`` (every two outlines on different bodies that can meet,
+        :meth:`~harmbal.scene.shapes.Outline.meets`): ``min_distance`` [m] (negative: overlap, a
         collision), ``angle`` [rad] of crank angle θ in [0, 2π) where it
         occurs, ``collision`` (bool); coordinates ``part_a``, ``part_b``,
-        ``body_a``, ``body_b``, ``cylinder``.
+        ``body_a``, ``body_b``, ``cylinder_a``, ``cylinder_b`` (the labels of
+        the cylinders whose frames the outlines are given in).
     """
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 8:
         raise ValueError(f"samples must be an integer of at least 8, got {samples!r}")
@@ -262,10 +264,12 @@ def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
             "part_b": ("pair", np.array([b.part for _, b in pairs], dtype=str)),
             "body_a": ("pair", np.array([a.body for a, _ in pairs], dtype=str)),
             "body_b": ("pair", np.array([b.body for _, b in pairs], dtype=str)),
-            "cylinder": ("pair", np.array([scene.cylinders[a.plane].label for a, _ in pairs], dtype=str)),
+            "cylinder_a": ("pair", np.array([scene.cylinders[a.plane].label for a, _ in pairs], dtype=str)),
+            "cylinder_b": ("pair", np.array([scene.cylinders[b.plane].label for _, b in pairs], dtype=str)),
         },
         {"title": f"harmbal clearance check: {scene.name}", "engine": scene.name, "samples": samples,
-         "conventions": "Outlines in each cylinder's plane; crank angle theta in the direction of rotation, 0 when "
+         "conventions": "Outlines in the plane normal to the crank axis, each in a body's frame of one cylinder; "
+                       "crank angle theta in the direction of rotation, 0 when "
                         "throw 1 points along +z; distances exact for convex polygons grown by radii "
                         "(docs/shapes.md)."},
     )

@@ -277,8 +277,8 @@ class Outline:
     rounded bar, more a polygon (``radius`` 0: sharp corners).
 
     ``body`` is one of :data:`OUTLINE_BODIES` or a balancer shaft's label;
-    ``plane`` the index (0-based) of the cylinder whose plane it lies in,
-    whose crank, rod and piston the moving bodies are. Frames (u, v): crank:
+    ``plane`` the index (0-based) of the cylinder in whose frames it is
+    given (its throw, rod, piston and axis). Frames (u, v): crank:
     origin on the crank axis, u towards this cylinder's crank pin; rod:
     origin at the crank-pin centre, u along the rod towards the piston pin;
     piston: origin at the piston pin, u along the cylinder axis away from
@@ -286,7 +286,8 @@ class Outline:
     a shaft: origin on its axis, u up (+z) at θ = 0. In every frame v is 90°
     ahead of u in the direction of rotation. ``axial_range`` (x_min, x_max)
     [m] is the part's extent along the crank axis: two parts whose ranges
-    do not overlap pass each other (None: the whole plane).
+    do not overlap pass each other (None: it meets the parts of its own
+    cylinder's plane only).
     """
 
     part: str
@@ -296,13 +297,20 @@ class Outline:
     radius: float = 0.0
     axial_range: tuple[float, float] | None = None
 
+    @property
+    def moving_body(self) -> tuple[str, int | None]:
+        """The rigid body it is fixed to: each cylinder has its own rod and
+        piston; the crank, the block and a shaft are one body for all."""
+        return (self.body, self.plane if self.body in ("rod", "piston") else None)
+
     def meets(self, other: "Outline") -> bool:
-        """Whether the two parts can touch: the same cylinder plane, different
-        bodies, overlapping axial ranges."""
-        if self.plane != other.plane or self.body == other.body:
+        """Whether the two parts can touch: on different bodies, and either
+        both with overlapping axial ranges or, if either has none, in the same
+        cylinder's plane."""
+        if self.moving_body == other.moving_body:
             return False
         if self.axial_range is None or other.axial_range is None:
-            return True
+            return self.plane == other.plane
         return self.axial_range[0] < other.axial_range[1] and other.axial_range[0] < self.axial_range[1]
 
 

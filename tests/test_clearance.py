@@ -180,7 +180,9 @@ def test_the_bundled_example_designs_its_blanks_and_clears():
     assert float(ds.min_distance.sel(pair="counterweight 1 / skirt, right")) == pytest.approx(0.0252082, abs=1e-7)
     design = hb.design(scene)
     assert "counterweight 2: blank sized, strip (shape 1) far = 81.0296 mm" in design.dataset.attrs["blanks"]
-    assert bool(hb.verify(design.scene).passed.all())
+    assert "first-order balance shafts: blank sized, sector (shape 1) outer_radius = 76.6727 mm" in \
+        design.dataset.attrs["blanks"]
+    assert design.feasible and bool(hb.verify(design.scene).passed.all())
 
 
 def test_no_outlines_no_pairs_and_the_sampling_is_checked():

@@ -221,7 +221,7 @@ def _minimum(scene: Scene, first: Outline, second: Outline, samples: int) -> tup
     return float(best[i]), float(where[i]) % (2 * math.pi)
 
 
-def clearance(scene: Scene, samples: int = CLEARANCE_SAMPLES):
+def clearance(scene: Scene, *, samples: int = CLEARANCE_SAMPLES):
     """Minimum distance between the outlines of parts on different bodies,
     over one crank revolution.
 

@@ -57,9 +57,11 @@ def w_of(ds, name, cyl_label, frame_axis):
     return (v[0] + 1j * v[1]) * frame_axis
 
 
-@pytest.fixture(scope="module", params=["test-single-loads-gas", "tractor-3cyl-gas", "tractor-3cyl"])
+@pytest.fixture(scope="module", params=["test-single-loads-gas", "tractor-3cyl-gas", "tractor-3cyl",
+                                        "v8-cross-plane-gas"])
 def case(request):
     scene = hb.load_scene(ENGINES / f"{request.param}.toml")
+    scene = scene.with_speeds(scene.speeds[-1:])  # the V8's sweep: its highest speed
     return scene, hb.loads(scene, samples_per_rev=N)
 
 

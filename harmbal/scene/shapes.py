@@ -38,7 +38,7 @@ The sizing solver (the free dimension that meets a target unbalance) is
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
@@ -252,11 +252,6 @@ class Blank:
         """The current value of the dimension ``solve`` (default :attr:`solve`)."""
         index, name = solve or self.solve
         return getattr(self.parts[index], name)
-
-
-def shape_fields(shape: AreaShape | PointMass) -> dict[str, object]:
-    """The dataclass fields of a shape and their values (for writing it)."""
-    return {f.name: getattr(shape, f.name) for f in fields(shape)}
 
 
 # --------------------------------------------------------------------------

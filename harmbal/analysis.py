@@ -75,7 +75,9 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         ``/joints`` (:func:`harmbal.joints`: joint forces and toggle
         diagnostics); if it has a ``[verify]`` table, ``/verify``
         (:func:`harmbal.verify`); if it has a ``[loads]`` table, ``/loads``
-        (:func:`harmbal.loads`: bearing and interface loads).
+        (:func:`harmbal.loads`: bearing and interface loads); if it has
+        ``[[outline]]`` tables, ``/clearance`` (:func:`harmbal.clearance`:
+        the smallest distance between moving parts over a revolution).
     """
     if "speed_fluctuation" in scene.model.effects:
         return _fluctuating(scene, per_cylinder, backend)
@@ -118,7 +120,8 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
 
 
 def _tree(scene: Scene, groups: dict, backend: str):
-    """The analysis tree of ``groups``, with /joints, /verify and /loads if the scene asks."""
+    """The analysis tree of ``groups``, with /joints, /verify, /loads and
+    /clearance if the scene asks."""
     if scene.levers:
         from .model.mechanism import joints
 
@@ -131,6 +134,10 @@ def _tree(scene: Scene, groups: dict, backend: str):
         from .views.loads import loads
 
         groups["loads"] = loads(scene, backend=backend)
+    if scene.outlines:
+        from .model.clearance import clearance
+
+        groups["clearance"] = clearance(scene)
     return tree({
         "title": f"harmbal analysis: {scene.name}",
         "engine": scene.name,

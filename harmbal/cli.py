@@ -100,12 +100,15 @@ def _parser() -> argparse.ArgumentParser:
     rep.set_defaults(handler=_report)
 
     loads = commands.add_parser(
-        "loads", help="bearing and interface loads: crank train joints, main bearings, balancer bearings and fasteners",
+        "loads", help="bearing and interface loads: crank train joints, main bearings, balancer bearings and fasteners; "
+                      "clearance between moving parts",
         description="Compute the loads of the crank train's joints per cylinder (side thrust, small end, big end and "
                     "crank pin, with the cylinder pressure over the working cycle if the scene has gas), the main "
                     "bearings' loads by the statically determinate split ([loads] main_bearings), and the balancers' "
                     "bearing loads, fastener loads and ramp drive torque ([[loads.element]]), and print their peaks "
-                    "and means per speed. With -o, also write them to a netCDF archive (/scene, /loads).")
+                    "and means per speed; with [[outline]] tables, the smallest distance between moving parts over a "
+                    "revolution (collisions first). With -o, also write them to a netCDF archive (/scene, /loads, "
+                    "/clearance).")
     loads.add_argument("scene", type=Path, help="scene file (TOML)")
     loads.add_argument("-o", "--output", type=Path, help="write the loads to this netCDF archive")
     loads.set_defaults(handler=_loads)
@@ -168,7 +171,8 @@ def _run(args) -> None:
     scene = _load(args.scene)
     from .model.sampling import simulates_gas
 
-    if args.output is None and scene.verify is None and not scene.levers and not simulates_gas(scene):
+    if (args.output is None and scene.verify is None and not scene.levers and not simulates_gas(scene)
+            and not scene.outlines):
         print(_order_table_without_datasets(scene, args.backend))
         return
 
@@ -198,6 +202,11 @@ def _run(args) -> None:
         print(lever_orders_table(with_free_vectors(tree["stars"].ds, tree["orders"].ds), stars(dataclasses.replace(scene, levers=()))))
         print()
         print(joints_table(tree["joints"].ds))
+    if "clearance" in tree.children:
+        from .reporting.tables import clearance_table
+
+        print()
+        print(clearance_table(tree["clearance"].ds))
     if args.output is not None:
         save(tree, args.output)
         print(f"\nwrote {args.output}")
@@ -209,11 +218,17 @@ def _loads(args) -> None:
     scene = _load(args.scene)
     from .analysis import scene_dataset
     from .labelled import tree
-    from .reporting.tables import loads_table
+    from .reporting.tables import clearance_table, loads_table
     from .views.loads import loads
 
     groups = {"scene": scene_dataset(scene), "loads": loads(scene)}
     print(loads_table(groups["loads"]))
+    if scene.outlines:
+        from .model.clearance import clearance
+
+        groups["clearance"] = clearance(scene)
+        print()
+        print(clearance_table(groups["clearance"]))
     if args.output is not None:
         from .io.archive import save
 

@@ -250,3 +250,43 @@ def test_rods_of_two_cylinders_are_two_bodies():
     # pins, both at radius 60 mm and angle θ + 0: concentric, overlapping by 80 mm.
     assert bool(hit.collision) and float(hit.min_distance) == pytest.approx(-0.08, abs=1e-12)
     assert "web / web rear" not in set(ds.pair.values)  # one crank
+
+
+def _colliding_scene_file(tmp_path):
+    text = _engine() + _outline("piston", "piston", "rectangle", centre=_mm(0.03, 0.0), width="70 mm",
+                                height="104 mm") + _head(0.33) + _outline("big end", "rod", "circle", radius="45 mm")
+    path = tmp_path / "collide.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_cli_loads_prints_the_clearance_collisions_first_and_archives_it(tmp_path, capsys):
+    from harmbal.cli import main
+
+    path = _colliding_scene_file(tmp_path)
+    expected = hb.clearance(hb.load_scene(path))
+    assert main(["loads", str(path), "-o", str(tmp_path / "out.nc")]) in (0, None)
+    out = capsys.readouterr().out
+    table = out.split("clearance between moving parts")[1].split("\n\n")[0]
+    rows = [line.split() for line in table.splitlines()[2:]]
+    assert rows[0][-1] == "COLLISION" and rows[0][:3] == ["piston", "/", "head"]
+    assert all(row[-1] == "clear" for row in rows[1:]) and len(rows) == expected.sizes["pair"]
+    assert float(rows[0][-3]) == pytest.approx(float(expected.sel(pair="piston / head").min_distance) * 1e3, abs=5e-5)
+    archived = hb.open_archive(tmp_path / "out.nc")
+    np.testing.assert_array_equal(archived["clearance"].ds.min_distance.values, expected.min_distance.values)
+
+
+def test_analyse_and_the_report_carry_the_clearance(tmp_path):
+    path = _colliding_scene_file(tmp_path)
+    tree = hb.analyse(hb.load_scene(path))
+    expected = hb.clearance(hb.load_scene(path))
+    np.testing.assert_array_equal(tree["clearance"].ds.min_distance.values, expected.min_distance.values)
+    html = hb.report(tree)
+    section = html[html.index('<section id="clearance">'):]
+    section = section[: section.index("</section>")]
+    assert "1 of 3 pairs collide" in section
+    assert section.index("piston / head") < section.index("piston / big end")
+    assert f"{float(expected.sel(pair='piston / head').min_distance) * 1e3:.4f} mm" in section
+    # Without outlines there is neither a group nor a section.
+    plain = hb.analyse(scene_from_text(_engine()))
+    assert "clearance" not in plain.children and '<section id="clearance">' not in hb.report(plain)

@@ -453,6 +453,24 @@ def _loads(page: _Page, scene, tree) -> None:
     page.add("</section>")
 
 
+def _clearance(page: _Page, tree) -> None:
+    if "clearance" not in tree.children:
+        return
+    ds = tree["clearance"].ds
+    distance, collision = ds["min_distance"].values, ds["collision"].values
+    order = sorted(range(distance.size), key=lambda i: (not collision[i], distance[i]))
+    rows = [[str(ds["pair"].values[i]), f"{ds['body_a'].values[i]} / {ds['body_b'].values[i]}",
+             f"{distance[i] * 1e3:.4f} mm", f"{math.degrees(float(ds['angle'].values[i])):.1f}°",
+             "COLLISION" if collision[i] else "clear"] for i in order]
+    verdict = (f"<strong>{int(collision.sum())} of {distance.size} pairs collide.</strong>" if collision.any()
+               else f"No collision: the closest of {distance.size} pairs are {distance.min() * 1e3:.4g} mm apart."
+               if distance.size else "No two outlines can meet (different bodies, overlapping axial ranges).")
+    page.add('<section id="clearance"><h2>Clearance between moving parts</h2>'
+             f"<p>{verdict}</p>" + _table(["parts", "bodies", "smallest distance", "at θ", "result"], rows, 2)
+             + '<p class="note">Over one revolution: each sampled minimum refined to 1e-13 rad; negative distances '
+             "are overlaps. Outlines are 2-D and convex, in each cylinder's plane (docs/shapes.md).</p></section>")
+
+
 def _provenance(page: _Page, scene, source: str) -> None:
     page.add('<section id="provenance"><h2>Provenance</h2>'
              f"<p>Made by harmbal {_e(__version__)} from <code>{_e(source)}</code>. To reproduce:</p>"
@@ -497,6 +515,7 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     _lever(page, tree)
     _torque(page, scene, tree)
     _loads(page, scene, tree)
+    _clearance(page, tree)
     _provenance(page, scene, source or scene.source)
     title = f"harmbal report: {scene.name}"
     text = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

@@ -421,3 +421,21 @@ def loads_table(loads) -> str:
             lines.append(f"  {'total':<34}{'':>12}{np.nansum(loads['ramp_torque'].values):>14.5g}"
                          f"{np.nansum(loads['ramp_power'].values):>12.5g}")
     return "\n".join(lines)
+
+
+def clearance_table(clearance) -> str:
+    """The smallest distance between every two parts over a revolution, from
+    :func:`harmbal.clearance` (``/clearance``); collisions first."""
+    lines = [f"{clearance.attrs['engine']}: clearance between moving parts over one revolution "
+             f"({clearance.attrs['samples']} samples, each minimum refined); negative = overlap"]
+    if clearance.sizes["pair"] == 0:
+        return "\n".join(lines + ["  no two outlines can meet (different bodies, overlapping axial ranges)"])
+    distance = clearance["min_distance"].values
+    width = max(len(str(p)) for p in clearance["pair"].values) + 2
+    lines.append(f"  {'parts':<{width}}{'bodies':<24}{'min [mm]':>10}{'at θ':>9}  result")
+    for i in sorted(range(distance.size), key=lambda j: (not clearance["collision"].values[j], distance[j])):
+        bodies = f"{clearance['body_a'].values[i]} / {clearance['body_b'].values[i]}"
+        lines.append(f"  {str(clearance['pair'].values[i]):<{width}}{bodies:<24}{distance[i] * 1e3:>10.4f}"
+                     f"{np.degrees(clearance['angle'].values[i]):>8.1f}°  "
+                     f"{'COLLISION' if clearance['collision'].values[i] else 'clear'}")
+    return "\n".join(lines)

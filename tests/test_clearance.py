@@ -183,6 +183,10 @@ def test_the_bundled_example_designs_its_blanks_and_clears():
     assert "first-order balance shafts: blank sized, sector (shape 1) outer_radius = 76.6727 mm" in \
         design.dataset.attrs["blanks"]
     assert design.feasible and bool(hb.verify(design.scene).passed.all())
+    from harmbal.reporting.tables import design_table
+
+    printed = design_table(design).split("Blanks sized to these unbalances")[1]
+    assert all(line in printed for line in design.dataset.attrs["blanks"].splitlines())
 
 
 def test_no_outlines_no_pairs_and_the_sampling_is_checked():

@@ -237,6 +237,9 @@ def design_table(result) -> str:
              "", "Elements (unbalance = mass × radius; angle at θ = 0 from +z in the direction of rotation):"]
     for label, u, angle in zip(ds["element"].values, ds["unbalance"].values, ds["unbalance_angle"].values):
         lines.append(f"  {label:<32} {u * 1e3:>12.6g} kg mm  at {np.degrees(angle) % 360:>7.2f}°")
+    if ds.attrs.get("blanks"):
+        lines += ["", "Blanks sized to these unbalances (written as shapes in the output scene):"]
+        lines += [f"  {note}" for note in ds.attrs["blanks"].splitlines()]
     lines += ["", f"{'order':>5}  {'component':<15}{'without new elements':>24}{'predicted residual':>24}  result"]
     for i, k in enumerate(ds["order"].values):
         for j, name in enumerate(ds["component"].values):

@@ -1,0 +1,666 @@
+"""Design-space sweeps and production-tolerance Monte Carlo, vectorised over a
+``variant`` axis.
+
+A sweep sets numeric keys of the scene file (key paths as the user writes
+them, ``geometry.rod_length``, ``cylinder[2].piston.mass``) to many values.
+Each key is first tried through the scene reader (validation and units as
+for a scene file) and sorted into one of two kinds:
+
+* a *linear* key changes only masses, rod inertias or unbalance sizes (the
+  slots of :mod:`harmbal.orders.linear`), in proportion to its value: its
+  values enter every variant by one matrix product, without reading or
+  evaluating anything again;
+* any other key is a *geometry* key: each distinct combination of the
+  geometry keys' values is read (and validated) as a scene and evaluated
+  once (:func:`harmbal.orders.linear.linear_phasors`).
+
+The phasors of all the variants of one geometry are then one matrix product
+(:func:`harmbal.orders.linear.combine`), which works on any block of
+variants, so the variant axis can be chunked.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+import tomllib
+from dataclasses import dataclass, replace
+from numbers import Real
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..labelled import CONVENTIONS, Speeds, dataset, variable
+from ..orders.linear import LinearPhasors, combine, geometry_key, linear_phasors, peaks, slot_values, time_basis
+from ..orders.spectrum import ROTATION
+from ..scene import Scene, SceneError, load_scene
+from ..scene.schema import Problem
+from ..scene.units import SI_UNITS, QuantityError, to_si
+
+MODES = ("grid", "zip")
+
+#: Units of the SI values of the scene keys a sweep is most often over, by the key's last name.
+_KEY_UNITS = {
+    "crank_radius": "m", "rod_length": "m", "pin_offset": "m", "cylinder_offset": "m", "axial_position": "m",
+    "cg_from_big_end": "m", "cg_offset": "m", "radius": "m", "axial_offset": "m", "mass": "kg",
+    "mass_big_end": "kg", "mass_small_end": "kg", "inertia": "kg m^2", "unbalance": "kg m", "throw": "rad",
+    "bank": "rad", "angle": "rad",
+}
+
+#: Variants whose peaks are rebuilt at a time (bounds the memory of the time-domain blocks).
+_PEAK_BLOCK = 4096
+
+
+# -- distributions of Monte Carlo -----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Normal:
+    """Normally distributed deviation from the scene's nominal value, standard
+    deviation ``sigma`` in SI units (or a unit string such as ``"2 g"``)."""
+
+    sigma: float | str
+
+    def draw(self, rng: np.random.Generator, nominal: float, n: int, key: str) -> np.ndarray:
+        return nominal + rng.normal(0.0, _si_strict(key, self.sigma), n)
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """Uniformly distributed deviation from the scene's nominal value in
+    [``low``, ``high``) (SI units or unit strings), e.g. ``Uniform(-1e-3, 1e-3)``."""
+
+    low: float | str
+    high: float | str
+
+    def draw(self, rng: np.random.Generator, nominal: float, n: int, key: str) -> np.ndarray:
+        return nominal + rng.uniform(_si_strict(key, self.low), _si_strict(key, self.high), n)
+
+
+@dataclass(frozen=True)
+class WeightClasses:
+    """Discrete values (not deviations: the classes themselves, SI units or
+    unit strings) drawn with the given probabilities, e.g. piston weight
+    classes ``WeightClasses(["398 g", "400 g", "402 g"], [0.25, 0.5, 0.25])``."""
+
+    values: Sequence[float | str]
+    probabilities: Sequence[float]
+
+    def draw(self, rng: np.random.Generator, nominal: float, n: int, key: str) -> np.ndarray:
+        values = np.array([_si_strict(key, v) for v in self.values])
+        p = np.asarray(self.probabilities, dtype=float)
+        if p.shape != values.shape or np.any(p < 0) or not math.isclose(p.sum(), 1.0, rel_tol=1e-9):
+            raise SceneError([Problem("<monte carlo>", key, list(self.probabilities),
+                                      f"{len(values)} probabilities ≥ 0 summing to 1 are needed")])
+        return rng.choice(values, n, p=p / p.sum())
+
+
+# -- key paths ------------------------------------------------------------------------------------
+
+
+def _fail(source: str, key: str, value: Any, rule: str):
+    return SceneError([Problem(source, key, value, rule)])
+
+
+def _parse_path(source: str, key: str) -> list[tuple[str, int | None]]:
+    import re
+
+    parts = []
+    for part in key.split("."):
+        match = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[([1-9][0-9]*)\])?", part)
+        if match is None:
+            raise _fail(source, key, key, "not a key path: write e.g. geometry.rod_length or "
+                        "cylinder[2].piston.mass (tables by name, arrays by 1-based index)")
+        parts.append((match[1], None if match[2] is None else int(match[2])))
+    return parts
+
+
+def _set(raw: dict, source: str, key: str, value: Any) -> None:
+    """Set ``key`` in the raw scene mapping, creating missing tables on the way."""
+    node: Any = raw
+    parts = _parse_path(source, key)
+    for depth, (name, index) in enumerate(parts):
+        last = depth == len(parts) - 1
+        where = ".".join(f"{n}" + ("" if i is None else f"[{i}]") for n, i in parts[: depth + 1])
+        if not isinstance(node, dict):
+            raise _fail(source, key, value, f"{where.rpartition('.')[0]} is not a table")
+        if index is None:
+            if last:
+                node[name] = value
+                return
+            if isinstance(node.get(name), list):
+                raise _fail(source, key, value, f"{where} is an array: name an entry, e.g. {where}[1]")
+            node = node.setdefault(name, {})
+            continue
+        entries = node.get(name)
+        if not isinstance(entries, list) or index > len(entries):
+            count = len(entries) if isinstance(entries, list) else 0
+            raise _fail(source, key, value, f"the scene has no {where} ({count} entr{'y' if count == 1 else 'ies'} "
+                        f"of {name})")
+        if last:
+            entries[index - 1] = value
+            return
+        node = entries[index - 1]
+
+
+def _get(raw: dict, key: str) -> Any:
+    """The raw value of ``key`` in the scene mapping, or None if it is not written there."""
+    node: Any = raw
+    for name, index in _parse_path("", key):
+        if not isinstance(node, dict) or name not in node:
+            return None
+        node = node[name]
+        if index is not None:
+            if not isinstance(node, list) or index > len(node):
+                return None
+            node = node[index - 1]
+    return node
+
+
+def _si(value: Any) -> tuple[float, str | None]:
+    """A plain number (SI) or a unit string as an SI float and its units (None if unknown)."""
+    if isinstance(value, Real) and not isinstance(value, bool):
+        return float(value), None
+    if isinstance(value, str):
+        for dimension, units in SI_UNITS.items():
+            if dimension == "dimensionless":
+                continue
+            try:
+                return to_si(value, dimension), units
+            except QuantityError:
+                continue
+    raise QuantityError(f"not a number or a quantity with units: {value!r}")
+
+
+def _si_strict(key: str, value: Any) -> float:
+    try:
+        si = _si(value)[0]
+    except QuantityError as exc:
+        raise _fail("<monte carlo>", key, value, str(exc)) from None
+    if not math.isfinite(si):
+        raise _fail("<monte carlo>", key, value, "must be finite")
+    return si
+
+
+def _toml_value(value: Any) -> Any:
+    """A value the reader takes: Python floats and ints, strings as given."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        raise QuantityError(f"not a number: {value!r}")
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    return float(value)
+
+
+# -- the plan: which key is which, the geometries, the slot values of every variant ---------------
+
+
+class _Reader:
+    """Reads variants of one scene through the scene reader, naming the scene's file in errors.
+
+    The variants keep the given scene's speeds (a scene from ``with_speeds`` sweeps at its own speeds);
+    any other difference between the scene and its source text is refused, since the variants are
+    read from that text."""
+
+    def __init__(self, scene: Scene):
+        if not scene.source_text:
+            raise _fail(scene.source, "(scene)", None, "the scene has no source text to vary: load it with "
+                        "harmbal.load_scene")
+        self.scene = scene
+        self.raw = tomllib.loads(scene.source_text)
+        self.cache: dict[tuple, Scene] = {}
+        self.file = self._load(self.raw)
+        if geometry_key(replace(self.file, speeds=scene.speeds)) != geometry_key(scene) or \
+                not np.array_equal(slot_values(self.file)[1], slot_values(scene)[1]):
+            raise _fail(scene.source, "(scene)", None, "the scene differs from its source text (changed after it "
+                        "was read): write the change into the scene file to sweep it")
+        self.cache[()] = scene
+
+    def _load(self, raw: dict) -> Scene:
+        try:
+            return load_scene(raw)
+        except SceneError as exc:
+            raise SceneError([replace(p, source=self.scene.source) for p in exc.problems]) from None
+
+    def read(self, values: dict[str, Any]) -> Scene:
+        key = tuple(sorted((k, repr(v)) for k, v in values.items()))
+        if key not in self.cache:
+            raw = copy.deepcopy(self.raw)
+            for k, v in values.items():
+                _set(raw, self.scene.source, k, v)
+            scene = self._load(raw)
+            if (scene.speeds, scene.sampling.max_order) != (self.file.speeds, self.file.sampling.max_order):
+                raise _fail(self.scene.source, ", ".join(values), list(values.values()),
+                            "a sweep cannot change the speeds or max_order (every variant is reported at the "
+                            "scene's speeds and orders)")
+            self.cache[key] = replace(scene, speeds=self.scene.speeds, source=self.scene.source)
+        return self.cache[key]
+
+
+def _linear_coefficients(reader: _Reader, key: str, values: list, si: np.ndarray, base_key: Scene,
+                         base_slots: np.ndarray) -> dict[int, float] | None:
+    """{slot: slot value per SI unit of the key} if ``key`` moves only slots, in
+    proportion to its value, else None (a geometry key). The key is read at its
+    smallest, median and largest value, which validates those values; the
+    slots' rules (positive) then hold for every value between."""
+    order = np.argsort(si, kind="stable")
+    probes = sorted({int(order[0]), int(order[len(order) // 2]), int(order[-1])})
+    scenes = [reader.read({key: _toml_value(values[p])}) for p in probes]
+    if any(geometry_key(s) != base_key for s in scenes):
+        return None
+    slots = np.array([slot_values(s)[1] for s in scenes])
+    moved = np.flatnonzero((slots != base_slots).any(axis=0))
+    x = si[probes]
+    if moved.size and np.any(x == 0):
+        return None
+    coefficients = {}
+    for s in moved:
+        a = slots[:, s] / x
+        if not np.allclose(a, a[0], rtol=1e-14, atol=0):
+            return None
+        coefficients[int(s)] = float(a[0])
+    return coefficients
+
+
+def _unsupported(scene: Scene) -> str | None:
+    effects = scene.model.effects
+    if "gas" in effects or any(c.gas is not None for c in scene.cylinders):
+        return "gas loads are not linear in the masses: sweep a scene without [gas]"
+    if "speed_fluctuation" in effects:
+        return "the speed fluctuation is not swept yet: leave out the effect"
+    if scene.levers and "balancers" in effects:
+        return "lever balancers are not swept yet: leave them out or drop the balancers effect"
+    return None
+
+
+@dataclass
+class _Plan:
+    keys: tuple[str, ...]
+    coords: dict[str, np.ndarray]       # SI value of each key per variant
+    units: dict[str, str | None]
+    linear: tuple[str, ...]
+    geometry: tuple[str, ...]
+    bases: list[LinearPhasors]           # one per distinct geometry
+    group: np.ndarray                    # (variant,) index into bases
+    slots: np.ndarray                    # (variant, slot) slot values
+
+
+def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str) -> _Plan:
+    """Sort the keys, read each distinct geometry once and fill the slot values of every variant
+    (``index`` (variant, key): which of each key's ``values`` a variant takes)."""
+    reader = _Reader(scene)
+    reason = _unsupported(scene)
+    if reason:
+        raise _fail(scene.source, "(scene)", scene.name, reason)
+    keys = tuple(values)
+    si, units = {}, {}
+    for key, vals in values.items():
+        _parse_path(scene.source, key)
+        converted = []
+        for v in vals:
+            try:
+                value, unit = _si(v)
+            except QuantityError as exc:
+                raise _fail(scene.source, key, v, str(exc)) from None
+            if not math.isfinite(value):
+                raise _fail(scene.source, key, v, "must be finite")
+            converted.append(value)
+            units.setdefault(key, unit)
+        si[key] = np.array(converted)
+        units[key] = _KEY_UNITS.get(_parse_path(scene.source, key)[-1][0], units.get(key))
+
+    base_key = geometry_key(scene)
+    names, base_slots = slot_values(scene)
+    linear: dict[str, dict[int, float]] = {}  # key -> {slot: value of the slot per SI unit of the key}
+    for key in keys:
+        coefficients = _linear_coefficients(reader, key, values[key], si[key], base_key, base_slots)
+        if coefficients is not None:
+            linear[key] = coefficients
+    # A slot moved by two keys (mass and radius of one unbalance) is their product, not linear.
+    owners: dict[int, list[str]] = {}
+    for key, coefficients in linear.items():
+        for s in coefficients:
+            owners.setdefault(s, []).append(key)
+    for shared in (ks for ks in owners.values() if len(ks) > 1):
+        for key in shared:
+            linear.pop(key, None)
+    geometry = tuple(k for k in keys if k not in linear)
+
+    columns = [keys.index(k) for k in geometry]
+    if columns:
+        # One integer per combination of the geometry keys' values: a 1-D unique is much faster than rows'.
+        flat = np.ravel_multi_index(tuple(index[:, c] for c in columns), tuple(len(values[k]) for k in geometry))
+        combos, group = np.unique(flat, return_inverse=True)
+        combos = np.array(np.unravel_index(combos, tuple(len(values[k]) for k in geometry))).T
+    else:
+        combos, group = np.zeros((1, 0), dtype=int), np.zeros(len(index), dtype=int)
+    bases, slot_rows = [], []
+    for combo in combos:
+        variant = reader.read({k: _toml_value(values[k][i]) for k, i in zip(geometry, combo)})
+        reason = _unsupported(variant)
+        if reason:
+            raise _fail(scene.source, ", ".join(geometry), None, reason)
+        if slot_values(variant)[0] != names:
+            raise _fail(scene.source, ", ".join(geometry), None, "changes the scene's cylinders or unbalances")
+        bases.append(linear_phasors(variant, backend=backend))
+        slot_rows.append(bases[-1].values)
+    slots = np.array(slot_rows)[group]
+    for key, coefficients in linear.items():
+        x = si[key][index[:, keys.index(key)]]
+        for s, a in coefficients.items():
+            slots[:, s] = x if a == 1.0 else a * x
+    return _Plan(keys=keys, coords={k: si[k][index[:, i]] for i, k in enumerate(keys)}, units=units,
+                 linear=tuple(linear), geometry=geometry, bases=bases, group=group, slots=slots)
+
+
+# -- evaluation and the Dataset -------------------------------------------------------------------
+
+
+def order_amplitude(phasor: np.ndarray) -> np.ndarray:
+    """Peak over a revolution of the magnitude of a vector Re(C·e^{ikθ}), C
+    complex per axis (axis last): √((Σ|C_a|² + |Σ C_a²|)/2), the semi-major
+    axis of the ellipse it traces (|P_co| + |P_counter| for a transverse
+    vector)."""
+    re, im = phasor.real, phasor.imag
+    square = (re * re - im * im).sum(axis=-1) + 2j * (re * im).sum(axis=-1)
+    return np.sqrt(((re * re + im * im).sum(axis=-1) + np.abs(square)) / 2)
+
+
+def rotating(phasor: np.ndarray, orders: np.ndarray, sense: int) -> np.ndarray:
+    """Co- and counter-rotating phasors (..., order, rotation) of the
+    transverse part of ``phasor`` (..., order, axis), w = z + i·t with
+    t = −sense·y (:func:`harmbal.orders.spectrum.rotating_split`; order 0 is a
+    fixed vector, reported as co-rotating)."""
+    z, t = phasor[..., 2], -sense * phasor[..., 1]
+    out = np.empty(phasor.shape[:-1] + (2,), dtype=complex)
+    out[..., 0] = (z + 1j * t) / 2
+    out[..., 1] = np.conj(z - 1j * t) / 2
+    fixed = orders == 0
+    out[..., fixed, 0] = z[..., fixed] + 1j * t[..., fixed]
+    out[..., fixed, 1] = 0
+    return out
+
+
+def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.ndarray, orders: np.ndarray,
+                  peak_samples: int | None = None, w2: float = 1.0) -> dict[str, np.ndarray]:
+    """Phasors (and peaks) of a block of variants at one speed.
+
+    Parameters
+    ----------
+    bases : sequence of LinearPhasors
+        One per geometry.
+    group : ndarray of int
+        (variant,) the geometry of each variant.
+    slots : ndarray
+        (variant, slot) slot values [kg, kg m², kg m].
+    orders : ndarray of int
+        Orders to report.
+    peak_samples : int, optional
+        Angles per revolution on which the peaks are taken; None: no peaks.
+    w2 : float
+        Square of the crank speed [rad²/s²]; the loads scale with it exactly
+        (applied to each geometry's basis, not to the variants' arrays).
+
+    Returns
+    -------
+    dict
+        ``force``, ``moment`` (variant, order, axis) complex [N], [N m];
+        ``peak_force``, ``peak_moment`` (variant,) if asked.
+    """
+    count = len(group)
+    force = np.empty((count, len(orders), 3), dtype=complex)
+    moment = np.empty_like(force)
+    out = {"force": force, "moment": moment}
+    if peak_samples:
+        out["peak_force"], out["peak_moment"] = np.empty(count), np.empty(count)
+    by_group = np.argsort(group, kind="stable")
+    bounds = np.searchsorted(group[by_group], np.arange(len(bases) + 1))
+    for g, basis in enumerate(bases):
+        rows = by_group[bounds[g]: bounds[g + 1]] if len(bases) > 1 else slice(None)
+        if w2 != 1.0:
+            basis = replace(basis, force=w2 * basis.force, moment=w2 * basis.moment,
+                            constant_force=w2 * basis.constant_force, constant_moment=w2 * basis.constant_moment)
+        f, m = combine(basis, slots[rows], orders)
+        force[rows], moment[rows] = f.swapaxes(-1, -2), m.swapaxes(-1, -2)
+        if peak_samples:
+            waves = time_basis(basis, peak_samples)
+            where = np.arange(count)[rows]
+            for start in range(0, len(where), _PEAK_BLOCK):
+                block = where[start: start + _PEAK_BLOCK]
+                out["peak_force"][block], out["peak_moment"][block] = peaks(*waves, slots[block])
+    return out
+
+
+def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: str, attrs: dict, speeds: Speeds):
+    """The Dataset of ``arrays`` (at the scene's one speed, or at unit speed if
+    it has several: then lazy ω² products over ``speed``)."""
+    def var(dims, values, var_attrs):
+        return speeds.variable(dims, values, var_attrs) if speeds.several else variable(dims, values, var_attrs)
+
+    data = {}
+    for name, units in (("force", "N"), ("moment", "N m")):
+        values = arrays[name]
+        data[name] = var((dim, "order", "axis"), values, {
+            "units": units, "long_name": f"order phasor of the free shaking {name}",
+            "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"})
+        data[f"{name}_rotating"] = var((dim, "order", "rotation"), rotating(values, orders, scene.sense), {
+            "units": units, "long_name": f"co- and counter-rotating phasors of the transverse {name}",
+            "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta)"})
+        data[f"{name}_amplitude"] = var((dim, "order"), order_amplitude(values), {
+            "units": units, "long_name": f"peak over a revolution of the order's {name} vector",
+            "description": "sqrt((sum_a |C_a|^2 + |sum_a C_a^2|) / 2)"})
+        if f"peak_{name}" in arrays:
+            data[f"peak_{name}"] = var((dim,), arrays[f"peak_{name}"], {
+                "units": units, "long_name": f"largest magnitude of the {name} vector over a revolution",
+                "description": f"maximum over {attrs['peak_samples']} angles of the orders 0..max_order "
+                               "rebuilt from the phasors"})
+    coords = {dim: variable((dim,), np.arange(len(plan.group)), {"long_name": f"{dim} number"})}
+    for key in plan.keys:
+        key_attrs = {"long_name": f"scene key {key}", "kind": "linear" if key in plan.linear else "geometry"}
+        if plan.units.get(key):
+            key_attrs["units"] = plan.units[key]
+        coords[key] = variable((dim,), plan.coords[key], key_attrs)
+    coords.update({
+        "order": variable(("order",), orders, {"long_name": "order of crank speed", "units": "1"}),
+        "axis": variable(("axis",), np.array(["x", "y", "z"]), {"long_name": "engine axis"}),
+        "rotation": variable(("rotation",), np.array(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
+    })
+    if speeds.several:
+        coords.update(speeds.coords())
+    attrs = {
+        "conventions": CONVENTIONS, "engine": scene.name, "rotation": scene.rotation,
+        "speed_rad_s": list(scene.speeds), "max_order": scene.sampling.max_order,
+        "linear_keys": list(plan.linear), "geometry_keys": list(plan.geometry), "geometries": len(plan.bases),
+        "samples_per_rev": sorted({b.samples_per_rev for b in plan.bases}), **attrs,
+    }
+    return dataset(data, coords, attrs)
+
+
+def _run(scene: Scene, values: dict, index: np.ndarray, orders, peaks: bool, peak_samples: int, backend: str,
+         dim: str, attrs: dict):
+    kept = _orders(scene, orders)
+    plan = _plan(scene, values, index, backend)
+    speeds = Speeds(scene.speeds)
+    arrays = evaluate_plan(plan.bases, plan.group, plan.slots, kept, peak_samples if peaks else None,
+                           w2=1.0 if speeds.several else float(speeds.w2))
+    if peaks:
+        attrs["peak_samples"] = peak_samples
+    return _dataset(scene, plan, arrays, kept, dim, attrs, speeds)
+
+
+def _orders(scene: Scene, orders) -> np.ndarray:
+    kmax = scene.sampling.max_order
+    if orders is None:
+        return np.arange(kmax + 1)
+    chosen = np.unique(np.asarray(orders, dtype=int))
+    if chosen.size == 0 or chosen[0] < 0 or chosen[-1] > kmax:
+        raise ValueError(f"orders must lie in 0..{kmax} (the scene's max_order): {list(orders)}")
+    return chosen
+
+
+def _as_scene(scene: Scene | str | os.PathLike) -> Scene:
+    return scene if isinstance(scene, Scene) else load_scene(scene)
+
+
+def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], *, mode: str = "grid",
+          orders: Sequence[int] | None = None, peaks: bool = False, peak_samples: int = 360,
+          backend: str = "scipy"):
+    """Free forces and moments of many variants of a scene, vectorised.
+
+    Parameters
+    ----------
+    scene : Scene or path-like
+        The nominal scene (from :func:`harmbal.load_scene`, or its file).
+        Scenes with gas, lever balancers or the speed fluctuation are refused.
+    parameters : mapping of str to sequence
+        Key path → values. A key path addresses the scene file as written:
+        ``geometry.rod_length``, ``piston.mass``, ``rod.mass``,
+        ``cylinder[2].piston.mass``, ``cylinder[1].bank``,
+        ``crankshaft_unbalance[1].unbalance`` (1-based array indices; missing
+        tables are created, so ``cylinder[2].piston.mass`` overrides the shared
+        [piston] for cylinder 2 only). Values are plain numbers in SI units
+        (radians for angles, as in a scene file) or unit strings (``"128 mm"``).
+    mode : {"grid", "zip"}
+        ``grid``: every combination (the first key varies slowest); ``zip``:
+        the i-th values of all keys together (equal lengths).
+    orders : sequence of int, optional
+        Orders to report (default 0 … max_order).
+    peaks : bool
+        Also the largest magnitude of the force and moment vectors over a
+        revolution (``peak_force``, ``peak_moment``).
+    peak_samples : int
+        Angles per revolution for the peaks (their accuracy: see docs/sweeps.md).
+    backend : {"scipy", "numpy", "pyfftw"}
+        FFT implementation of the single-cylinder spectra.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims ``variant``, ``order``, ``axis``, ``rotation`` (and ``speed`` if the
+        scene has several speeds). Complex ``force`` [N] and ``moment`` [N m]
+        (variant, order, axis) at the scene's speed, about its reference
+        point; ``force_rotating``/``moment_rotating`` (variant, order,
+        rotation); real ``force_amplitude``/``moment_amplitude`` (variant,
+        order), the peak of each order's vector over a revolution; with
+        ``peaks``, ``peak_force``/``peak_moment`` (variant,). Each key is a
+        coordinate along ``variant`` (SI values). In grid mode
+        ``ds.set_index(variant=list(parameters)).unstack("variant")`` gives one
+        dimension per key (attribute ``grid_shape``).
+
+    Raises
+    ------
+    SceneError
+        A key that is not a key path or not in the scene, a value the scene
+        reader refuses (naming the key), or a scene the sweep cannot vary.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}: {mode!r}")
+    scene = _as_scene(scene)
+    if not parameters:
+        raise ValueError("give at least one key to sweep")
+    values = {k: list(np.atleast_1d(np.asarray(v, dtype=object))) for k, v in parameters.items()}
+    for key, vals in values.items():
+        if not vals:
+            raise _fail(scene.source, key, [], "no values to sweep")
+    lengths = [len(v) for v in values.values()]
+    if mode == "zip":
+        if len(set(lengths)) > 1:
+            raise ValueError(f"zip mode needs equally many values of every key: {dict(zip(values, lengths))}")
+        index = np.repeat(np.arange(lengths[0])[:, None], len(values), axis=1)
+    else:
+        index = np.indices(lengths).reshape(len(lengths), -1).T
+    attrs = {"title": f"harmbal sweep: {scene.name}", "mode": mode, "parameters": list(values)}
+    if mode == "grid":
+        attrs["grid_shape"] = lengths
+    return _run(scene, values, index, orders, peaks, peak_samples, backend, "variant", attrs)
+
+
+def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Normal | Uniform | WeightClasses],
+                n: int, *, seed: int | np.random.SeedSequence | None = None, orders: Sequence[int] | None = None,
+                peaks: bool = False, peak_samples: int = 360, percentiles: Sequence[float] = (5, 50, 95, 99),
+                force_limit: float | None = None, moment_limit: float | None = None, backend: str = "scipy"):
+    """Production scatter: the free forces and moments of ``n`` random variants.
+
+    Parameters
+    ----------
+    scene : Scene or path-like
+        The nominal scene; each toleranced key must be written in its file
+        (the nominal value).
+    tolerances : mapping of str to Normal, Uniform or WeightClasses
+        Key path (as in :func:`sweep`) → distribution: :class:`Normal` and
+        :class:`Uniform` are deviations from the nominal, :class:`WeightClasses`
+        the values themselves. Keys are drawn independently, in the order given.
+    n : int
+        Samples.
+    seed : int or SeedSequence, optional
+        Seed of :func:`numpy.random.default_rng`: the same seed gives
+        bit-identical results.
+    orders, peaks, peak_samples, backend
+        As in :func:`sweep`.
+    percentiles : sequence of float
+        Percentiles [%] of the order amplitudes (and peaks) to summarise.
+    force_limit, moment_limit : float, optional
+        Limits [N], [N m] of the order amplitudes (at the scene's speed):
+        ``p_exceed_force``/``p_exceed_moment`` per order give the share of
+        samples above them.
+
+    Returns
+    -------
+    xarray.Dataset
+        As :func:`sweep` with dim ``sample`` instead of ``variant``, plus
+        ``force_amplitude_percentile``/``moment_amplitude_percentile``
+        (percentile, order) (and ``peak_*_percentile``), ``force_amplitude_mean``,
+        ``force_amplitude_std`` (and the moment's) per order, and the exceedance
+        shares if limits are given.
+    """
+    scene = _as_scene(scene)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n must be a positive integer: {n!r}")
+    if not tolerances:
+        raise ValueError("give at least one toleranced key")
+    rng = np.random.default_rng(seed)
+    raw = tomllib.loads(scene.source_text) if scene.source_text else {}
+    values = {}
+    for key, dist in tolerances.items():
+        if not isinstance(dist, (Normal, Uniform, WeightClasses)):
+            raise TypeError(f"{key}: a Normal, Uniform or WeightClasses, not {type(dist).__name__}")
+        _parse_path(scene.source, key)
+        nominal = _get(raw, key)
+        if nominal is None and not isinstance(dist, WeightClasses):
+            raise _fail(scene.source, key, None, "not written in the scene: a tolerance is a deviation from the "
+                        "nominal value, write the nominal in the scene file")
+        try:
+            centre = 0.0 if nominal is None else _si(nominal)[0]
+        except QuantityError as exc:
+            raise _fail(scene.source, key, nominal, str(exc)) from None
+        values[key] = dist.draw(rng, centre, int(n), key)
+    index = np.repeat(np.arange(int(n))[:, None], len(values), axis=1)
+    attrs = {"title": f"harmbal Monte Carlo: {scene.name}", "mode": "monte carlo", "parameters": list(values),
+             "samples": int(n), "seed": "none" if seed is None else str(seed),
+             "tolerances": [f"{k}: {d!r}" for k, d in tolerances.items()]}
+    ds = _run(scene, values, index, orders, peaks, peak_samples, backend, "sample", attrs)
+    return _summarise(ds, percentiles, force_limit, moment_limit)
+
+
+def _summarise(ds, percentiles, force_limit, moment_limit):
+    """Percentiles, mean and standard deviation over ``sample`` of the order
+    amplitudes (and peaks), and the share of samples above the limits."""
+    q = np.asarray(percentiles, dtype=float)
+    out = ds.assign_coords(percentile=("percentile", q, {"units": "%"}))
+    names = ["force_amplitude", "moment_amplitude"] + [v for v in ("peak_force", "peak_moment") if v in ds]
+    for name in names:
+        values = ds[name]
+        units = values.attrs.get("units", "")
+        stats = values.quantile(q / 100, dim="sample").rename(quantile="percentile").assign_coords(percentile=q)
+        out[f"{name}_percentile"] = stats.assign_attrs(units=units, long_name=f"percentiles of {name} over the samples")
+        out[f"{name}_mean"] = values.mean("sample").assign_attrs(units=units, long_name=f"mean of {name}")
+        out[f"{name}_std"] = values.std("sample", ddof=1).assign_attrs(
+            units=units, long_name=f"sample standard deviation of {name}")
+    for name, limit in (("force", force_limit), ("moment", moment_limit)):
+        if limit is not None:
+            out[f"p_exceed_{name}"] = (ds[f"{name}_amplitude"] > limit).mean("sample").assign_attrs(
+                units="1", long_name=f"share of samples whose order {name} amplitude exceeds {limit:g}",
+                limit=float(limit))
+    return out

@@ -1,0 +1,211 @@
+"""Design sweeps and Monte Carlo (harmbal.sweep, harmbal.monte_carlo) against
+the single-scene analysis of each variant and against closed forms.
+
+Oracle: every checked variant is written into the scene mapping here, by hand
+(not through the sweep's key paths), read by load_scene and analysed by
+hb.analyse (time domain + FFT of the totals); the sweep evaluates each geometry
+once and the masses by linearity. They agree to round-off: 1e-12 of the
+variant's load scale (the sum of the single bodies' peak loads), the tolerance
+of the project's exact comparisons (a balanced order's phasor is round-off, so
+it has no relative error of its own).
+"""
+
+import copy
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import harmbal as hb
+from harmbal.scene import SceneError
+
+ENGINES = Path(__file__).resolve().parent.parent / "datasets" / "engines"
+RTOL = 1e-12
+
+
+def _raw(name):
+    return tomllib.loads((ENGINES / f"{name}.toml").read_text(encoding="utf-8"))
+
+
+def _assert_variant_equals_analysis(ds, i, raw):
+    """Variant i of the sweep against hb.analyse of the scene ``raw``."""
+    orders = hb.analyse(hb.load_scene(raw))["orders"].ds
+    v = ds.isel(variant=i) if "variant" in ds.dims else ds.isel(sample=i)
+    for name in ("force", "moment"):
+        scale = float(orders[f"{name}_scale"])
+        for var in (name, f"{name}_rotating"):
+            expected = orders[var].sel(order=ds.order).values
+            np.testing.assert_allclose(v[var].values, expected, rtol=0, atol=RTOL * scale, err_msg=f"{var} variant {i}")
+
+
+def test_grid_sweep_equals_the_analysis_of_each_variant():
+    rod_lengths = [0.120, 0.128, 0.140]
+    piston_masses = ["0.38 kg", "400 g", 0.43]
+    rod2_masses = [0.36, 0.38, 0.41]
+    inertias = ["0.00110 kg m^2", 0.00125]
+    ds = hb.sweep(ENGINES / "v-twin-90.toml", {
+        "geometry.rod_length": rod_lengths, "piston.mass": piston_masses,
+        "cylinder[2].rod.mass": rod2_masses, "rod.inertia": inertias})
+    assert ds.sizes["variant"] == 3 * 3 * 3 * 2
+    assert ds.attrs["geometry_keys"] == ["geometry.rod_length"] and ds.attrs["geometries"] == 3
+    assert set(ds.attrs["linear_keys"]) == {"piston.mass", "cylinder[2].rod.mass", "rod.inertia"}
+    # grid order: the first key varies slowest; coordinates are SI values
+    np.testing.assert_array_equal(ds["piston.mass"].values[:18:6], [0.38, 0.4, 0.43])
+    np.testing.assert_array_equal(ds["rod.inertia"].values[:4], [0.0011, 0.00125] * 2)
+    assert ds["geometry.rod_length"].attrs["units"] == "m"
+    rng = np.random.default_rng(16)
+    for i in rng.choice(ds.sizes["variant"], 6, replace=False):
+        a, b, c, d = np.unravel_index(i, ds.attrs["grid_shape"])
+        raw = _raw("v-twin-90")
+        raw["geometry"]["rod_length"] = rod_lengths[a]
+        raw["piston"]["mass"] = piston_masses[b]
+        raw["cylinder"][1]["rod"] = {"mass": rod2_masses[c]}
+        raw["rod"]["inertia"] = inertias[d]
+        _assert_variant_equals_analysis(ds, int(i), raw)
+
+
+def test_zip_sweep_of_unbalances_offsets_and_counterweights():
+    # crankshaft_unbalance[1].mass is linear (mass x radius); the counterweight (a shaft) and the pin offset are
+    # geometry keys, read and evaluated once per distinct pair.
+    masses = ["12.0 kg", "12.782 kg", "13.5 kg", "12.0 kg"]
+    counterweights = [0.09, 0.0957, 0.10, 0.10]
+    offsets = ["0 mm", "0.5 mm", "1 mm", "0 mm"]
+    ds = hb.sweep(ENGINES / "test-single-balanced.toml", {
+        "crankshaft_unbalance[1].mass": masses, "counterweight[2].unbalance": counterweights,
+        "geometry.pin_offset": offsets}, mode="zip", orders=[1, 2, 3])
+    assert ds.sizes["variant"] == 4 and list(ds.order.values) == [1, 2, 3]
+    assert ds.attrs["linear_keys"] == ["crankshaft_unbalance[1].mass"]
+    assert ds.attrs["geometries"] == 4
+    for i in range(4):
+        raw = _raw("test-single-balanced")
+        raw["crankshaft_unbalance"][0]["mass"] = masses[i]
+        raw["counterweight"][1]["unbalance"] = counterweights[i]
+        raw["geometry"]["pin_offset"] = offsets[i]
+        _assert_variant_equals_analysis(ds, i, raw)
+
+
+def test_a_product_of_two_swept_keys_is_read_per_variant():
+    ds = hb.sweep(ENGINES / "test-single-balanced.toml", {
+        "crankshaft_unbalance[1].mass": [12.0, 13.0], "crankshaft_unbalance[1].radius": ["8 mm", "9 mm"]})
+    assert ds.attrs["linear_keys"] == [] and ds.attrs["geometries"] == 4
+    raw = _raw("test-single-balanced")
+    raw["crankshaft_unbalance"][0].update(mass=13.0, radius="9 mm")
+    _assert_variant_equals_analysis(ds, 3, raw)
+
+
+def test_banks_and_throws_are_geometry_and_grid_unstacks():
+    banks = ["-30 deg", "-45 deg"]
+    ds = hb.sweep(ENGINES / "v-twin-90.toml", {"cylinder[1].bank": banks, "piston.mass": [0.39, 0.41]})
+    grid = ds.set_index(variant=list(ds.attrs["parameters"])).unstack("variant")
+    assert grid["force"].sizes == {"order": 13, "axis": 3, "cylinder[1].bank": 2, "piston.mass": 2}
+    assert complex(grid["force"].sel({"cylinder[1].bank": -np.pi / 4, "piston.mass": 0.41}, method="nearest")
+                   .sel(order=1, axis="z")) == complex(ds["force"].isel(variant=3).sel(order=1, axis="z"))
+    raw = _raw("v-twin-90")
+    raw["cylinder"][0]["bank"] = banks[0]
+    raw["piston"]["mass"] = 0.41
+    _assert_variant_equals_analysis(ds, 1, raw)
+
+
+def test_peaks_bracket_the_time_domain_maximum():
+    ds = hb.sweep(ENGINES / "v-twin-90.toml", {"geometry.rod_length": [0.12, 0.14]}, peaks=True, peak_samples=720)
+    for i, length in enumerate([0.12, 0.14]):
+        raw = _raw("v-twin-90")
+        raw["geometry"]["rod_length"] = length
+        raw["sampling"] = {"samples_per_rev": 720}
+        time = hb.analyse(hb.load_scene(raw))["time"].ds
+        for name in ("force", "moment"):
+            sampled = float(np.sqrt((time[name] ** 2).sum("axis")).max())
+            # the same 720 angles; the sweep rebuilds the loads from orders <= max_order = 12, whose
+            # truncation is 5e-9 of the moment here
+            assert ds[f"peak_{name}"].values[i] == pytest.approx(sampled, rel=1e-7)
+
+
+@pytest.mark.parametrize("key, value, words", [
+    ("geometry.rod_lenght", 0.13, ["geometry.rod_lenght", "unknown key"]),
+    ("cylinder[5].piston.mass", 0.4, ["cylinder[5].piston.mass", "no cylinder[5]"]),
+    ("geometry.rod_length", 0.03, ["geometry.rod_length", "cannot assemble"]),
+    ("piston.mass", -0.1, ["piston.mass", "positive"]),
+    ("piston.mass", "12 mm", ["piston.mass"]),
+    ("geometry..rod_length", 0.13, ["not a key path"]),
+])
+def test_bad_keys_and_values_name_the_key(key, value, words):
+    with pytest.raises(SceneError) as info:
+        hb.sweep(ENGINES / "v-twin-90.toml", {key: [0.128 if key == "geometry.rod_length" else 0.4, value]})
+    message = str(info.value)
+    for word in words:
+        assert word in message
+    assert "v-twin-90.toml" in message
+
+
+def test_scenes_with_gas_are_refused():
+    with pytest.raises(SceneError, match="gas"):
+        hb.sweep(ENGINES / "single-gas.toml", {"piston.mass": [0.4, 0.5]})
+
+
+def test_monte_carlo_first_order_force_has_the_closed_form_mean_and_variance():
+    # Single centric cylinder: the first-order piston acceleration is r·ω²·cos θ exactly (A_1 = 1), so the
+    # first-order force along the cylinder axis (z) is F_nominal + δm·r·ω², δm ~ N(0, σ²).
+    scene = hb.load_scene(ENGINES / "single.toml")
+    r, w = scene.cylinders[0].crank_radius, scene.speeds[0]
+    sigma, n = 0.004, 20000
+    mc = hb.monte_carlo(scene, {"piston.mass": hb.Normal(sigma)}, n, seed=7, orders=[1], force_limit=1e9)
+    nominal = hb.analyse(scene)["orders"].ds["force"].sel(order=1, axis="z").values.real
+    f = mc["force"].sel(order=1, axis="z").values.real
+    dm = mc["piston.mass"].values - 0.48
+    scale = float(hb.analyse(scene)["orders"].ds["force_scale"])
+    np.testing.assert_allclose(f, nominal + dm * r * w**2, rtol=0, atol=RTOL * scale)  # sample by sample
+    sd = r * w**2 * sigma
+    assert abs(f.mean() - nominal) < 5 * sd / np.sqrt(n)
+    assert abs(f.var(ddof=1) - sd**2) < 5 * sd**2 * np.sqrt(2 / (n - 1))
+    assert float(mc["p_exceed_force"].sel(order=1)) == 0.0
+    assert mc["force_amplitude_percentile"].dims == ("percentile", "order")
+    again = hb.monte_carlo(scene, {"piston.mass": hb.Normal("4 g")}, n, seed=7, orders=[1])
+    np.testing.assert_array_equal(again["force"].values, mc["force"].values)  # same seed: bit-identical
+    other = hb.monte_carlo(scene, {"piston.mass": hb.Normal(sigma)}, n, seed=8, orders=[1])
+    assert not np.array_equal(other["force"].values, mc["force"].values)
+
+
+def test_monte_carlo_weight_classes_and_uniform_tolerances():
+    mc = hb.monte_carlo(ENGINES / "v-twin-90.toml", {
+        "cylinder[1].piston.mass": hb.WeightClasses(["398 g", "400 g", "402 g"], [0.25, 0.5, 0.25]),
+        "geometry.rod_length": hb.Uniform("-0.1 mm", "0.1 mm")}, 40, seed=1, orders=[1, 2],
+        moment_limit=0.0)
+    classes = mc["cylinder[1].piston.mass"].values
+    assert set(np.round(classes, 12)) <= {0.398, 0.400, 0.402}
+    lengths = mc["geometry.rod_length"].values
+    assert np.all((lengths >= 0.128 - 1e-4) & (lengths < 0.128 + 1e-4))
+    assert mc.attrs["geometries"] == 40  # every sample its own rod length
+    assert float(mc["p_exceed_moment"].sel(order=1)) == 1.0
+    raw = _raw("v-twin-90")
+    raw["cylinder"][0]["piston"] = {"mass": float(classes[3])}
+    raw["geometry"]["rod_length"] = float(lengths[3])
+    _assert_variant_equals_analysis(mc, 3, raw)
+
+
+def test_monte_carlo_needs_the_nominal_in_the_scene():
+    with pytest.raises(SceneError, match="geometry.pin_offset"):
+        hb.monte_carlo(ENGINES / "v-twin-90.toml", {"geometry.pin_offset": hb.Normal(1e-4)}, 10, seed=0)
+
+
+def test_sweep_does_not_change_the_scene_it_is_given():
+    scene = hb.load_scene(ENGINES / "v-twin-90.toml")
+    before = copy.deepcopy(scene)
+    hb.sweep(scene, {"piston.mass": [0.3, 0.5], "geometry.crank_radius": [0.036, 0.038]})
+    assert scene == before
+
+
+def test_several_speeds_are_a_lazy_speed_dimension():
+    scene = hb.load_scene(ENGINES / "v-twin-90.toml").with_speeds([300.0, 900.0])
+    ds = hb.sweep(scene, {"piston.mass": [0.39, 0.41]}, orders=[1, 2])
+    assert ds["force"].dims == ("speed", "variant", "order", "axis")
+    raw = _raw("v-twin-90")
+    raw["piston"]["mass"] = 0.41
+    expected = hb.analyse(hb.load_scene(raw).with_speeds([300.0, 900.0]))["orders"].ds
+    scale = float(expected["force_scale"].max())
+    np.testing.assert_allclose(ds["force"].isel(variant=1).values, expected["force"].sel(order=[1, 2]).values,
+                               rtol=0, atol=RTOL * scale)
+    with pytest.raises(SceneError, match="speeds"):
+        hb.sweep(scene, {"engine.speed": ["1000 rpm"]})
+    with pytest.raises(SceneError, match="differs from its source text"):
+        hb.sweep(scene.with_effects({"reciprocating"}), {"piston.mass": [0.4]})

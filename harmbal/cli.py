@@ -133,6 +133,34 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--engines-dir", type=Path, help="folder with the bundled scenes (default datasets/engines)")
     bench.set_defaults(handler=_bench)
 
+    sweep = commands.add_parser(
+        "sweep", help="free forces and moments over a grid of scene keys, or under production tolerances",
+        description="Vary numeric keys of the scene (key paths as written in the file: geometry.rod_length, "
+                    "piston.mass, cylinder[2].rod.mass ...) over a grid (--set, every combination; --zip: the i-th "
+                    "values together) or draw them from tolerance distributions (--monte-carlo N --tol ...), and "
+                    "print the best and worst variant by the residual of the orders asked and percentiles. Each "
+                    "distinct geometry is evaluated once, masses and unbalances by linearity (docs/sweeps.md). "
+                    "With -o, also write the results to a netCDF archive (/scene, /sweep).")
+    sweep.add_argument("scene", type=Path, help="scene file (TOML)")
+    sweep.add_argument("--set", dest="sets", action="append", type=_sweep_set, default=[], metavar="KEY=START:STOP:N",
+                       help="sweep KEY over N values from START to STOP (plain numbers SI, or with units: "
+                            "'geometry.rod_length=120 mm:140 mm:5'), or over listed values KEY=V1,V2,...; repeatable")
+    sweep.add_argument("--zip", action="store_true", help="pair the --set values (equal counts) instead of a grid")
+    sweep.add_argument("--monte-carlo", type=_positive_int, metavar="N", help="draw N samples of the --tol keys")
+    sweep.add_argument("--tol", action="append", type=_tolerance, default=[], metavar="KEY=DIST",
+                       help="tolerance of KEY: normal:SIGMA or uniform:LOW:HIGH (deviations from the scene's value), "
+                            "or classes:V1@P1,V2@P2,... (weight classes with probabilities); repeatable")
+    sweep.add_argument("--seed", type=int, help="seed of the Monte Carlo draws (same seed, same results)")
+    sweep.add_argument("--orders", type=_order_list, default=[1, 2], metavar="K[,K...]",
+                       help="orders to report and rank by (default 1,2)")
+    sweep.add_argument("--force-limit", type=float, metavar="N",
+                       help="Monte Carlo: report the share of samples whose order force amplitude exceeds this [N]")
+    sweep.add_argument("--moment-limit", type=float, metavar="NM",
+                       help="Monte Carlo: the same for the moment [N m]")
+    sweep.add_argument("--peaks", action="store_true", help="also the peak force and moment over a revolution")
+    sweep.add_argument("-o", "--output", type=Path, help="write the results to this netCDF archive (.nc)")
+    sweep.set_defaults(handler=_sweep)
+
     show = commands.add_parser(
         "show", help="print the tables stored in an archive",
         description="Print the free forces and moments per order from a harmbal netCDF archive, and the "
@@ -253,6 +281,120 @@ def _order_table_without_datasets(scene, backend: str) -> str:
     speeds = np.asarray(scene.speeds, dtype=float)
     w2 = speeds**2
     return order_table_of_arrays(attrs, speeds, lambda i: {name: w2[i] * np.asarray(v) for name, v in values.items()})
+
+
+def _sweep(args) -> None:
+    from .scene import SceneError
+    from .views.sweep import monte_carlo, sweep
+
+    if args.output is not None:
+        _check_output(args.output, (".nc",), "the sweep is written as a netCDF archive (.nc)")
+    if args.monte_carlo is None and args.tol:
+        raise _BadInput("--tol needs --monte-carlo N")
+    if args.monte_carlo is not None and (args.sets or args.zip or not args.tol):
+        raise _BadInput("--monte-carlo takes --tol keys only (no --set or --zip)")
+    if args.monte_carlo is None and not args.sets:
+        raise _BadInput("nothing to vary: give --set KEY=START:STOP:N (or --monte-carlo N --tol KEY=DIST)")
+    for what, given in (("--set", [k for k, _ in args.sets]), ("--tol", [k for k, _ in args.tol])):
+        repeated = sorted({k for k in given if given.count(k) > 1})
+        if repeated:
+            raise _BadInput(f"{what}: {', '.join(repeated)} given more than once")
+    scene = _load(args.scene)
+    if max(args.orders) > scene.sampling.max_order:
+        raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
+    try:
+        if args.monte_carlo is not None:
+            ds = monte_carlo(scene, dict(args.tol), args.monte_carlo, seed=args.seed, orders=args.orders,
+                             peaks=args.peaks, force_limit=args.force_limit, moment_limit=args.moment_limit)
+        else:
+            ds = sweep(scene, dict(args.sets), mode="zip" if args.zip else "grid", orders=args.orders,
+                       peaks=args.peaks)
+    except SceneError as exc:
+        raise _BadInput(str(exc)) from None
+    except ValueError as exc:
+        raise _BadInput(str(exc)) from None
+    from .reporting.sweeps import sweep_table
+
+    print(sweep_table(ds))
+    if args.output is not None:
+        from .analysis import scene_dataset
+        from .io.archive import save
+        from .labelled import tree
+
+        save(tree({"title": ds.attrs["title"], "engine": scene.name, "harmbal_version": __version__},
+                  {"scene": scene_dataset(scene), "sweep": ds}), args.output)
+        print(f"\nwrote {args.output}")
+
+
+def _sweep_values(key: str, text: str) -> list:
+    """START:STOP:N (N values, SI numbers or quantities with units) or V1,V2,... (as given)."""
+    import numpy as np
+
+    from .scene.units import QuantityError
+    from .views.sweep import quantity_value
+
+    parts = text.split(":")
+    if len(parts) == 1:
+        return [_number_or_text(v) for v in text.split(",")]
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"{key}: write START:STOP:N or V1,V2,...: {text!r}")
+    try:
+        count = int(parts[2])
+        (start, units), (stop, stop_units) = (quantity_value(v.strip()) for v in parts[:2])
+    except (ValueError, QuantityError) as exc:
+        raise argparse.ArgumentTypeError(f"{key}: {text!r}: {exc}") from None
+    if count < 1 or (count == 1 and start != stop) or units != stop_units:
+        raise argparse.ArgumentTypeError(f"{key}: {text!r}: N ≥ 1 values (1 only if START = STOP), START and STOP "
+                                         "in the same units")
+    return list(np.linspace(start, stop, count))
+
+
+def _number_or_text(text: str):
+    try:
+        return float(text)
+    except ValueError:
+        return text.strip()
+
+
+def _sweep_set(text: str) -> tuple[str, list]:
+    key, sep, spec = text.partition("=")
+    if not sep or not key.strip() or not spec.strip():
+        raise argparse.ArgumentTypeError(f"write KEY=START:STOP:N or KEY=V1,V2,...: {text!r}")
+    return key.strip(), _sweep_values(key.strip(), spec.strip())
+
+
+def _tolerance(text: str):
+    from .views.sweep import Normal, Uniform, WeightClasses
+
+    key, sep, spec = text.partition("=")
+    kind, _, rest = spec.partition(":")
+    key = key.strip()
+    usage = f"{key or 'KEY'}: write normal:SIGMA, uniform:LOW:HIGH or classes:V1@P1,V2@P2,...: {text!r}"
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(usage)
+    try:
+        if kind == "normal" and rest and ":" not in rest:
+            return key, Normal(_number_or_text(rest))
+        if kind == "uniform" and rest.count(":") == 1:
+            low, high = rest.split(":")
+            return key, Uniform(_number_or_text(low), _number_or_text(high))
+        if kind == "classes" and rest:
+            pairs = [item.rpartition("@") for item in rest.split(",")]
+            if all(sep and value for value, sep, _ in pairs):
+                return key, WeightClasses([_number_or_text(v) for v, _, _ in pairs], [float(p) for _, _, p in pairs])
+    except ValueError:
+        pass
+    raise argparse.ArgumentTypeError(usage)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1: {text!r}")
+    return value
 
 
 def _order_list(text: str) -> list[int]:
@@ -474,6 +616,11 @@ def _show(args) -> None:
     from .reporting.tables import order_table
 
     tree = _open(args.archive)
+    if "sweep" in tree.children:
+        from .reporting.sweeps import sweep_table
+
+        print(sweep_table(tree["sweep"].ds))
+        return
     if "orders" not in tree.children and "loads" not in tree.children:
         raise _BadInput(f"{args.archive}: archive has no /orders group")
     if "orders" in tree.children:

@@ -209,3 +209,54 @@ def test_several_speeds_are_a_lazy_speed_dimension():
         hb.sweep(scene, {"engine.speed": ["1000 rpm"]})
     with pytest.raises(SceneError, match="differs from its source text"):
         hb.sweep(scene.with_effects({"reciprocating"}), {"piston.mass": [0.4]})
+
+
+def test_cli_sweep_prints_best_worst_and_percentiles_and_writes_the_archive(tmp_path, capsys):
+    from harmbal.cli import main
+
+    out = tmp_path / "sweep.nc"
+    assert main(["sweep", str(ENGINES / "v-twin-90.toml"),
+                 "--set", "geometry.rod_length=120 mm:140 mm:3", "--set", "piston.mass=0.38,0.42",
+                 "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "6 variants (grid 3 × 2)" in text and "best by force" in text and "worst by moment" in text
+    assert "geometry.rod_length = 0.14 m" in text and "50 %" in text and "N m" in text
+    stored = hb.open_archive(out)["sweep"].ds
+    ds = hb.sweep(ENGINES / "v-twin-90.toml", {"geometry.rod_length": [0.12, 0.13, 0.14], "piston.mass": [0.38, 0.42]},
+                  orders=[1, 2])
+    np.testing.assert_array_equal(stored["force"].values, ds["force"].values)
+    assert main(["show", str(out)]) == 0
+    assert "best by force" in capsys.readouterr().out
+
+
+def test_cli_monte_carlo_same_seed_same_table(capsys):
+    from harmbal.cli import main
+
+    argv = ["sweep", str(ENGINES / "single.toml"), "--monte-carlo", "500", "--tol", "piston.mass=normal:4 g",
+            "--tol", "rod.mass=classes:0.41@0.25,0.42@0.5,0.43@0.25", "--seed", "3", "--orders", "1",
+            "--force-limit", "20800"]
+    assert main(argv) == 0
+    first = capsys.readouterr().out
+    assert main(argv) == 0
+    assert capsys.readouterr().out == first
+    assert "500 samples" in first and "mean" in first and "above 20800 N" in first
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--set", "geometry.rod_lenght=0.12:0.14:3"], ["geometry.rod_lenght", "unknown key"]),
+    (["--set", "geometry.rod_length=0.02:0.14:3"], ["geometry.rod_length", "cannot assemble"]),
+    (["--set", "cylinder[3].piston.mass=0.4,0.5"], ["cylinder[3]"]),
+    (["--tol", "piston.mass=normal:0.01"], ["--monte-carlo"]),
+    (["--monte-carlo", "10", "--tol", "geometry.pin_offset=normal:0.001"], ["geometry.pin_offset", "nominal"]),
+    (["--set", "piston.mass=0.4,0.5", "--set", "rod.mass=0.3,0.4,0.5", "--zip"], ["equally many"]),
+    (["--set", "piston.mass=0.4", "--orders", "40"], ["max_order"]),
+])
+def test_cli_bad_input_exits_2_naming_the_key_and_writes_nothing(tmp_path, capsys, argv, words):
+    from harmbal.cli import main
+
+    out = tmp_path / "out.nc"
+    assert main(["sweep", str(ENGINES / "v-twin-90.toml"), *argv, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    for word in words:
+        assert word in err
+    assert not out.exists()

@@ -173,6 +173,26 @@ def _si(value: Any) -> tuple[float, str | None]:
     raise QuantityError(f"not a number or a quantity with units: {value!r}")
 
 
+def quantity_value(value: Any) -> tuple[float, str | None]:
+    """A number (SI) or a quantity string (``"128 mm"``) as an SI float and
+    its SI units (None for a plain number).
+
+    Raises
+    ------
+    QuantityError
+        If ``value`` is neither, or not finite.
+    """
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    si, units = _si(value)
+    if not math.isfinite(si):
+        raise QuantityError(f"not finite: {value!r}")
+    return si, units
+
+
 def _si_strict(key: str, value: Any) -> float:
     try:
         si = _si(value)[0]

@@ -1,0 +1,92 @@
+"""Plain-text summary of a design sweep or a Monte Carlo run, for the CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Percentiles [%] the summary prints.
+PERCENTILES = (0, 5, 50, 95, 100)
+
+
+def _dim(ds) -> str:
+    return "sample" if "sample" in ds.dims else "variant"
+
+
+def _at_top_speed(ds):
+    """The Dataset at its highest speed (where inertial residuals are largest) and that speed in rpm."""
+    if "speed" in ds.dims:
+        i = int(np.argmax(ds["speed"].values))
+        return ds.isel(speed=i), float(ds["rpm"].values[i])
+    return ds, float(np.atleast_1d(ds.attrs["speed_rad_s"])[0]) * 30 / np.pi
+
+
+def _key_value(ds, key: str, i: int) -> str:
+    units = ds[key].attrs.get("units", "")
+    return f"{key} = {float(ds[key].values[i]):.6g}" + (f" {units}" if units else "")
+
+
+def sweep_table(ds) -> str:
+    """Best and worst variant and percentiles of the order residuals.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`harmbal.sweep` or :func:`harmbal.monte_carlo`.
+
+    Returns
+    -------
+    str
+        The residual of a variant is its order amplitudes (peak of each
+        order's force or moment vector over a revolution) summed over the
+        orders of ``ds``; the best and worst variants by force and by moment
+        with their key values and amplitudes per order, then percentiles per
+        order (and mean, standard deviation and exceedance shares of a Monte
+        Carlo run).
+    """
+    dim = _dim(ds)
+    ds, rpm = _at_top_speed(ds)
+    orders = [int(k) for k in ds["order"].values]
+    count = ds.sizes[dim]
+    # An archive gives lists of one item back as scalars.
+    keys = [str(k) for k in np.atleast_1d(ds.attrs.get("parameters", []))]
+    shape = ds.attrs.get("grid_shape")
+    how = f"grid {' × '.join(map(str, np.atleast_1d(shape)))}" if shape is not None else ds.attrs.get("mode", "")
+    lines = [f"harmbal {'Monte Carlo' if dim == 'sample' else 'sweep'}: {ds.attrs.get('engine', '')}: "
+             f"{count} {dim}s ({how}), {ds.attrs.get('geometries', '?')} geometries evaluated, at {rpm:.6g} rpm",
+             "keys: " + ", ".join(f"{k} [{ds[k].attrs.get('units', 'SI')}] ({ds[k].attrs.get('kind', '')})"
+                                  for k in keys),
+             "residual: peak over a revolution of each order's vector; best/worst by its sum over orders "
+             + ", ".join(map(str, orders)), ""]
+    for name, units in (("force", "N"), ("moment", "N m")):
+        amplitude = ds[f"{name}_amplitude"].transpose(dim, "order").values
+        total = amplitude.sum(axis=1)
+        for label, i in (("best", int(np.argmin(total))), ("worst", int(np.argmax(total)))):
+            per_order = ", ".join(f"order {k} {a:.5g}" for k, a in zip(orders, amplitude[i]))
+            lines.append(f"{label} by {name}: {dim} {i}: {'; '.join(_key_value(ds, k, i) for k in keys)}")
+            lines.append(f"    {name} [{units}]: {per_order}")
+    lines.append("")
+    header = f"{'order':>5}  {'':<7}" + "".join(f"{f'{q:g} %':>12}" for q in PERCENTILES)
+    extra = dim == "sample"
+    if extra:
+        header += f"{'mean':>12}{'std':>12}"
+    lines.append(header)
+    for name, units in (("force", "N"), ("moment", "N m")):
+        amplitude = ds[f"{name}_amplitude"].transpose(dim, "order").values
+        stats = np.percentile(amplitude, PERCENTILES, axis=0)
+        for j, k in enumerate(orders):
+            row = f"{k:>5}  {name:<7}" + "".join(f"{v:>12.5g}" for v in stats[:, j])
+            if extra:
+                row += f"{amplitude[:, j].mean():>12.5g}{amplitude[:, j].std(ddof=1) if count > 1 else 0.0:>12.5g}"
+            lines.append(row + f"  {units}")
+    for name, units in (("force", "N"), ("moment", "N m")):
+        if f"p_exceed_{name}" in ds:
+            share = ds[f"p_exceed_{name}"]
+            lines.append(f"share of samples with an order {name} amplitude above {share.attrs['limit']:g} {units}: "
+                         + ", ".join(f"order {k} {float(share.sel(order=k)):.4g}" for k in orders))
+    if "peak_force" in ds:
+        lines.append("")
+        for name, units in (("force", "N"), ("moment", "N m")):
+            q = np.percentile(ds[f"peak_{name}"].values, PERCENTILES)
+            lines.append(f"peak {name} over a revolution [{units}], percentiles {', '.join(map(str, PERCENTILES))} %: "
+                         + ", ".join(f"{v:.5g}" for v in q))
+    return "\n".join(lines)

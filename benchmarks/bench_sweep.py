@@ -1,0 +1,113 @@
+"""Variants per second of a design sweep against looping the public API.
+
+The V-twin (datasets/engines/v-twin-90.toml) over 4 parameters, a grid of
+10 rod lengths × 10 crank radii × 100 piston masses × 100 rod masses = 10⁶
+variants (100 geometries), free force and moment phasors of orders 1 and 2
+with the co/counter split and order amplitudes: ``hb.sweep`` end to end (keys
+read and validated, each geometry evaluated once, the Dataset built), on one
+core (BLAS and FFT threads limited to 1 before numpy is imported). Also a
+pure mass sweep (one geometry), the same sweep with all orders 0–12, and
+with the peaks over a revolution (10⁵ variants).
+
+Baselines, same run, on the first variants of the same grid: per variant,
+``load_scene`` of the modified mapping then ``hb.analyse`` (the public
+Dataset path), and ``load_scene`` then ``order_phasors`` (plain arrays).
+
+Run from the repository root with harmbal installed:
+
+    python benchmarks/bench_sweep.py [--repeat 3]
+
+Each figure is the minimum over ``--repeat`` timed calls after one warm-up
+call. docs/performance.md records the figures and the machine.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")  # one core: set before numpy loads its BLAS
+
+import argparse  # noqa: E402
+import copy  # noqa: E402
+import time  # noqa: E402
+import tomllib  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from timing import machine  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = ROOT / "datasets" / "engines" / "v-twin-90.toml"
+
+GRID = {
+    "geometry.rod_length": np.linspace(0.120, 0.140, 10),
+    "geometry.crank_radius": np.linspace(0.035, 0.039, 10),
+    "piston.mass": np.linspace(0.36, 0.44, 100),
+    "rod.mass": np.linspace(0.34, 0.42, 100),
+}
+
+
+def best_of(function, repeat: int) -> float:
+    function()
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def baseline(count: int, analyse: bool) -> float:
+    """Seconds per variant of the public loop over the first ``count`` grid variants."""
+    import harmbal as hb
+    from harmbal.orders.phasors import order_phasors
+
+    raw = tomllib.loads(SCENE.read_text(encoding="utf-8"))
+    index = np.indices([len(v) for v in GRID.values()]).reshape(len(GRID), -1).T[:count]
+    start = time.perf_counter()
+    for row in index:
+        variant = copy.deepcopy(raw)
+        (variant["geometry"]["rod_length"], variant["geometry"]["crank_radius"], variant["piston"]["mass"],
+         variant["rod"]["mass"]) = (float(values[i]) for values, i in zip(GRID.values(), row))
+        scene = hb.load_scene(variant)
+        hb.analyse(scene) if analyse else order_phasors(scene)
+    return (time.perf_counter() - start) / count
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="timed calls per figure (the minimum is kept)")
+    args = parser.parse_args()
+
+    import harmbal as hb
+
+    scene = hb.load_scene(SCENE)
+    size = int(np.prod([len(v) for v in GRID.values()]))
+    masses = {"piston.mass": GRID["piston.mass"], "rod.mass": np.linspace(0.34, 0.42, 10_000)}
+    small = {**GRID, "piston.mass": GRID["piston.mass"][::10]}  # 10⁵ variants
+    small_size = int(np.prod([len(v) for v in small.values()]))
+    cases = [
+        ("4 parameters (100 geometries), orders 1-2", size, lambda: hb.sweep(scene, GRID, orders=[1, 2])),
+        ("2 masses (1 geometry), orders 1-2", 100 * 10_000, lambda: hb.sweep(scene, masses, orders=[1, 2])),
+        ("4 parameters, orders 0-12", small_size, lambda: hb.sweep(scene, small)),
+        ("4 parameters, orders 1-2 + peaks (360 angles)", small_size,
+         lambda: hb.sweep(scene, small, orders=[1, 2], peaks=True)),
+    ]
+    print(machine(args.repeat))
+    print()
+    print("| case | variants | time | variants/s |")
+    print("|---|---:|---:|---:|")
+    for label, count, function in cases:
+        seconds = best_of(function, args.repeat)
+        print(f"| hb.sweep, {label} | {count:,} | {seconds:.3g} s | {count / seconds:,.0f} |", flush=True)
+    for label, count, analyse in (("load_scene + hb.analyse per variant", 200, True),
+                                  ("load_scene + order_phasors per variant", 1000, False)):
+        baseline(5, analyse)  # warm-up
+        seconds = min(baseline(count, analyse) for _ in range(args.repeat))
+        print(f"| public loop: {label} | {count:,} | {seconds * count:.3g} s | {1 / seconds:,.0f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

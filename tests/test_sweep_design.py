@@ -326,3 +326,20 @@ def test_multi_cylinder_engines_with_balancers(engine, keys):
                 node = raw[table]
             node[leaf] = values[i]
         _assert_variant_equals_analysis(ds, i, raw)
+
+
+def test_monte_carlo_sensitivity_of_a_linear_amplitude():
+    # Single centric cylinder, order 1: the reciprocating m_rec·r·ω²·cos θ along z plus the rotating m_rot·r·ω²
+    # turning with the crank peak together at θ = 0, so the order's force amplitude is (m_piston + m_rod)·r·ω²,
+    # linear in both masses: the shares are σ_p²/(σ_p² + σ_r²) and σ_r²/(σ_p² + σ_r²) (sampling aside), R² = 1.
+    scene = hb.load_scene(ENGINES / "single.toml")
+    r, w = scene.cylinders[0].crank_radius, scene.speeds[0]
+    mc = hb.monte_carlo(scene, {"piston.mass": hb.Normal("4 g"), "rod.mass": hb.Normal("3 g")}, 5000, seed=11,
+                        orders=[1])
+    amplitude = mc["force_amplitude"].sel(order=1).values
+    np.testing.assert_allclose(amplitude, (mc["piston.mass"].values + mc["rod.mass"].values) * r * w**2, rtol=1e-12)
+    share = mc["force_sensitivity"].sel(order=1).values
+    assert list(mc["parameter"].values) == ["piston.mass", "rod.mass"]
+    assert float(mc["force_sensitivity_r2"].sel(order=1)) == pytest.approx(1, abs=1e-9)
+    assert share.sum() == pytest.approx(1, abs=0.05)  # less the draws' chance correlation (~1/√n) cross term
+    assert share[0] == pytest.approx(16 / 25, abs=0.03)

@@ -83,6 +83,17 @@ def sweep_table(ds) -> str:
             share = ds[f"p_exceed_{name}"]
             lines.append(f"share of samples with an order {name} amplitude above {share.attrs['limit']:g} {units}: "
                          + ", ".join(f"order {k} {float(share.sel(order=k)):.4g}" for k in orders))
+    if "force_sensitivity" in ds:
+        lines.append("")
+        lines.append("which tolerance drives the residual (share of the variance of the order amplitude, linear fit):")
+        for name in ("force", "moment"):
+            share = ds[f"{name}_sensitivity"]
+            for k in orders:
+                ranked = sorted(zip(share.sel(order=k).values, [str(p) for p in share["parameter"].values]),
+                                reverse=True)
+                r2 = float(ds[f"{name}_sensitivity_r2"].sel(order=k))
+                lines.append(f"  order {k} {name}: " + ", ".join(f"{p} {v:.3g}" for v, p in ranked)
+                             + f" (R² {r2:.3g})")
     if "peak_force" in ds:
         lines.append("")
         for name, units in (("force", "N"), ("moment", "N m")):

@@ -35,7 +35,7 @@ from ..labelled import CONVENTIONS, Speeds, dataset, variable
 from ..orders.linear import LinearPhasors, combine, geometry_key, linear_phasors, peaks, slot_values, time_basis
 from ..orders.spectrum import ROTATION
 from ..scene import Scene, SceneError, load_scene
-from ..scene.schema import Problem
+from ..scene.schema import _MISSING, Problem
 from ..scene.units import SI_UNITS, QuantityError, to_si
 
 MODES = ("grid", "zip")
@@ -632,8 +632,12 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
         As :func:`sweep` with dim ``sample`` instead of ``variant``, plus
         ``force_amplitude_percentile``/``moment_amplitude_percentile``
         (percentile, order) (and ``peak_*_percentile``), ``force_amplitude_mean``,
-        ``force_amplitude_std`` (and the moment's) per order, and the exceedance
-        shares if limits are given.
+        ``force_amplitude_std`` (and the moment's) per order, the exceedance
+        shares if limits are given, and ``force_sensitivity``/``moment_sensitivity``
+        (parameter, order): the share of the variance of each order amplitude
+        that each tolerance explains (squared standardised regression
+        coefficients of a linear fit, :func:`sensitivity`; ``*_sensitivity_r2``
+        the fit's R², near 1 where the response is near linear).
     """
     scene = _as_scene(scene)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
@@ -648,9 +652,12 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
             raise TypeError(f"{key}: a Normal, Uniform or WeightClasses, not {type(dist).__name__}")
         _parse_path(scene.source, key)
         nominal = _get(raw, key)
+        if nominal is None and key.startswith("cylinder["):
+            # A cylinder without its own value takes the shared table's, as the reader merges them.
+            nominal = _get(raw, key.partition(".")[2])
         if nominal is None and not isinstance(dist, WeightClasses):
-            raise _fail(scene.source, key, None, "not written in the scene: a tolerance is a deviation from the "
-                        "nominal value, write the nominal in the scene file")
+            raise _fail(scene.source, key, _MISSING, "not written in the scene: a tolerance is a deviation from "
+                        "the nominal value, write the nominal in the scene file")
         try:
             centre = 0.0 if nominal is None else _si(nominal)[0]
         except QuantityError as exc:
@@ -666,7 +673,8 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
 
 def _summarise(ds, percentiles, force_limit, moment_limit):
     """Percentiles, mean and standard deviation over ``sample`` of the order
-    amplitudes (and peaks), and the share of samples above the limits."""
+    amplitudes (and peaks), the share of samples above the limits, and the
+    sensitivity of each order amplitude to each toleranced key."""
     q = np.asarray(percentiles, dtype=float)
     out = ds.assign_coords(percentile=("percentile", q, {"units": "%"}))
     names = ["force_amplitude", "moment_amplitude"] + [v for v in ("peak_force", "peak_moment") if v in ds]
@@ -683,4 +691,51 @@ def _summarise(ds, percentiles, force_limit, moment_limit):
             out[f"p_exceed_{name}"] = (ds[f"{name}_amplitude"] > limit).mean("sample").assign_attrs(
                 units="1", long_name=f"share of samples whose order {name} amplitude exceeds {limit:g}",
                 limit=float(limit))
+    keys = list(ds.attrs["parameters"])
+    out = out.assign_coords(parameter=("parameter", np.array(keys), {"long_name": "toleranced scene key"}))
+    inputs = np.stack([ds[k].values for k in keys], axis=-1)
+    for name in ("force", "moment"):
+        amplitude = ds[f"{name}_amplitude"]
+        # ω² scales every sample alike: the shares do not depend on the speed.
+        values = amplitude.isel(speed=0).values if "speed" in amplitude.dims else amplitude.values
+        share, r2 = sensitivity(inputs, values)
+        out[f"{name}_sensitivity"] = (("parameter", "order"), share, {
+            "units": "1", "long_name": f"share of the variance of the order {name} amplitude due to each tolerance",
+            "description": "squared standardised regression coefficient of a linear least-squares fit on the "
+                           "samples; for independent tolerances the shares sum to about the fit's R^2"})
+        out[f"{name}_sensitivity_r2"] = (("order",), r2, {
+            "units": "1", "long_name": f"R^2 of the linear fit of the order {name} amplitude on the tolerances"})
     return out
+
+
+def sensitivity(inputs: np.ndarray, outputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Squared standardised regression coefficients of a linear fit.
+
+    Parameters
+    ----------
+    inputs : ndarray
+        (sample, parameter) drawn values.
+    outputs : ndarray
+        (sample, quantity) results.
+
+    Returns
+    -------
+    share : ndarray
+        (parameter, quantity): (b_k·σ_k/σ_y)², b the least-squares slopes; for
+        independent inputs and a near-linear response, the share of the
+        variance of y each input explains. A constant input or output has 0.
+    r2 : ndarray
+        (quantity,) the fit's coefficient of determination.
+    """
+    x = inputs - inputs.mean(axis=0)
+    y = outputs - outputs.mean(axis=0)
+    sx, sy = x.std(axis=0), y.std(axis=0)
+    varying = sx > 0
+    slopes = np.zeros((x.shape[1], y.shape[1]))
+    if varying.any():
+        slopes[varying] = np.linalg.lstsq(x[:, varying], y, rcond=None)[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(sy > 0, (slopes * sx[:, None] / sy) ** 2, 0.0)
+        residual = y - x @ slopes
+        r2 = np.where(sy > 0, 1 - (residual**2).sum(axis=0) / (y**2).sum(axis=0), 0.0)
+    return share, r2

@@ -159,6 +159,10 @@ def _parser() -> argparse.ArgumentParser:
                        help="Monte Carlo: the same for the moment [N m]")
     sweep.add_argument("--peaks", action="store_true", help="also the peak force and moment over a revolution")
     sweep.add_argument("-o", "--output", type=Path, help="write the results to this netCDF archive (.nc)")
+    sweep.add_argument("--plot", type=Path, metavar="FILE",
+                       help="draw the first order's force residual to FILE (.svg or .png): over the first two keys "
+                            "of a grid (a map) or the first key; for Monte Carlo its histogram, CDF and the "
+                            "tolerances ranked")
     sweep.set_defaults(handler=_sweep)
 
     show = commands.add_parser(
@@ -289,6 +293,8 @@ def _sweep(args) -> None:
 
     if args.output is not None:
         _check_output(args.output, (".nc",), "the sweep is written as a netCDF archive (.nc)")
+    if args.plot is not None:
+        _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     if args.monte_carlo is None and args.tol:
         raise _BadInput("--tol needs --monte-carlo N")
     if args.monte_carlo is not None and (args.sets or args.zip or not args.tol):
@@ -324,6 +330,19 @@ def _sweep(args) -> None:
         save(tree({"title": ds.attrs["title"], "engine": scene.name, "harmbal_version": __version__},
                   {"scene": scene_dataset(scene), "sweep": ds}), args.output)
         print(f"\nwrote {args.output}")
+    if args.plot is not None:
+        from .reporting.plots import save_figure
+        from .reporting.sweep_plots import monte_carlo_figure, sweep_figure
+
+        keys = [k for k, _ in args.sets]
+        if args.monte_carlo is not None:
+            figure = monte_carlo_figure(ds, order=args.orders[0])
+        elif not args.zip and len(keys) > 1:
+            figure = sweep_figure(ds, keys[0], keys[1], order=args.orders[0])
+        else:
+            figure = sweep_figure(ds, keys[0])
+        save_figure(figure, args.plot)
+        print(f"\nwrote {args.plot}")
 
 
 def _sweep_values(key: str, text: str) -> list:

@@ -343,3 +343,29 @@ def test_monte_carlo_sensitivity_of_a_linear_amplitude():
     assert float(mc["force_sensitivity_r2"].sel(order=1)) == pytest.approx(1, abs=1e-9)
     assert share.sum() == pytest.approx(1, abs=0.05)  # less the draws' chance correlation (~1/√n) cross term
     assert share[0] == pytest.approx(16 / 25, abs=0.03)
+
+
+@pytest.mark.parametrize("argv", [
+    ["--set", "geometry.rod_length=120 mm:140 mm:3", "--set", "cylinder[1].bank=-50 deg,-45 deg,-40 deg",
+     "--set", "piston.mass=0.38,0.42"],
+    ["--set", "geometry.rod_length=120 mm:140 mm:3", "--set", "piston.mass=0.38:0.42:3", "--zip"],
+    ["--monte-carlo", "300", "--tol", "piston.mass=normal:2 g", "--tol", "rod.mass=uniform:-1 g:1 g", "--seed", "1",
+     "--force-limit", "34000"],
+])
+def test_cli_plots(tmp_path, capsys, argv):
+    from harmbal.cli import main
+
+    out = tmp_path / "sweep.svg"
+    assert main(["sweep", str(ENGINES / "v-twin-90.toml"), *argv, "--plot", str(out)]) == 0
+    assert out.read_text(encoding="utf-8").lstrip().startswith("<?xml")
+    assert f"wrote {out}" in capsys.readouterr().out
+
+
+def test_sweep_figure_refuses_a_map_of_a_zip_sweep():
+    from harmbal.reporting.sweep_plots import sweep_figure
+
+    ds = hb.sweep(ENGINES / "v-twin-90.toml", {"piston.mass": [0.38, 0.4], "rod.mass": [0.36, 0.38]}, mode="zip")
+    with pytest.raises(ValueError, match="grid"):
+        sweep_figure(ds, "piston.mass", "rod.mass")
+    with pytest.raises(ValueError, match="not a swept key"):
+        sweep_figure(ds, "geometry.rod_length")

@@ -1,0 +1,155 @@
+"""Figures of design sweeps and Monte Carlo runs: an order's residual against a
+swept key (a line, or a map over two keys), and the distribution of the
+residual under production tolerances with the tolerances ranked by how much
+of its variance they explain.
+
+Like :mod:`harmbal.reporting.plots`, the figures use
+:class:`matplotlib.figure.Figure` directly (never pyplot), and matplotlib is
+imported only when a function here is called; write them with
+:func:`harmbal.reporting.plots.save_figure`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .plots import OKABE_ITO
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from matplotlib.figure import Figure
+
+_UNITS = {"force": "N", "moment": "N m"}
+
+
+def _at_top_speed(ds):
+    if "speed" in ds.dims:
+        i = int(np.argmax(ds["speed"].values))
+        return ds.isel(speed=i), float(ds["rpm"].values[i])
+    return ds, float(np.atleast_1d(ds.attrs["speed_rad_s"])[0]) * 30 / np.pi
+
+
+def _label(ds, key: str) -> str:
+    units = ds[key].attrs.get("units")
+    return f"{key} [{units}]" if units else key
+
+
+def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, order: int = 1,
+                 name: str = "force") -> Figure:
+    """An order's residual over one or two swept keys.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`harmbal.sweep`.
+    x, y : str, optional
+        Swept keys on the axes (default the first key; with ``y``, a map over
+        both, which needs a grid sweep). Keys not on an axis are reduced to
+        the best (smallest) residual over their values: the figure shows
+        what the best choice of the other keys reaches.
+    order : int
+        The order whose amplitude (peak of its vector over a revolution) is
+        drawn; for a line, every order of ``ds`` is drawn and ``order`` is
+        ignored.
+    name : {"force", "moment"}
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    keys = [str(k) for k in np.atleast_1d(ds.attrs["parameters"])]
+    x = x or keys[0]
+    for key in (x, y):
+        if key is not None and key not in keys:
+            raise ValueError(f"{key!r} is not a swept key; the keys are {', '.join(keys)}")
+    if name not in _UNITS:
+        raise ValueError(f"name must be 'force' or 'moment', not {name!r}")
+    ds, rpm = _at_top_speed(ds)
+    amplitude = ds[f"{name}_amplitude"]
+    grid = ds.attrs.get("grid_shape") is not None
+    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+    ax = fig.add_subplot()
+    others = [k for k in keys if k not in (x, y)]
+    note = f"; best over {', '.join(others)}" if others else ""
+    if y is not None:
+        if not grid:
+            raise ValueError("a map over two keys needs a grid sweep (mode='grid')")
+        table = amplitude.sel(order=order).set_index(variant=keys).unstack("variant")
+        if others:
+            table = table.min(others)
+        table = table.transpose(y, x)
+        mesh = ax.pcolormesh(table[x].values, table[y].values, table.values, shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label=f"order {order} {name} amplitude [{_UNITS[name]}]")
+        ax.set_ylabel(_label(ds, y))
+    elif grid and len(keys) > 1:
+        table = amplitude.set_index(variant=keys).unstack("variant")
+        if others:
+            table = table.min(others)
+        colours = list(OKABE_ITO.values())[1:]
+        for i, k in enumerate(table["order"].values):
+            ax.plot(table[x].values, table.sel(order=k).values, marker="o", ms=3, color=colours[i % len(colours)],
+                    label=f"order {int(k)}")
+        ax.legend()
+        ax.set_ylabel(f"{name} amplitude [{_UNITS[name]}]")
+    else:
+        colours = list(OKABE_ITO.values())[1:]
+        for i, k in enumerate(amplitude["order"].values):
+            ax.plot(ds[x].values, amplitude.sel(order=k).values, "o", ms=3, color=colours[i % len(colours)],
+                    label=f"order {int(k)}")
+        ax.legend()
+        ax.set_ylabel(f"{name} amplitude [{_UNITS[name]}]")
+    ax.set_xlabel(_label(ds, x))
+    ax.set_title(f"{ds.attrs.get('engine', '')}: {name} residual at {rpm:.6g} rpm{note}", fontsize="medium")
+    return fig
+
+
+def monte_carlo_figure(mc: xr.Dataset, *, order: int = 1, name: str = "force") -> Figure:
+    """Distribution of an order's residual under the tolerances, and which tolerance drives it.
+
+    Parameters
+    ----------
+    mc : xarray.Dataset
+        From :func:`harmbal.monte_carlo`.
+    order : int
+        The order whose amplitude is drawn.
+    name : {"force", "moment"}
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Histogram, empirical CDF (with the limit, if the run had one, and the
+        share above it) and the tolerances ranked by their share of the
+        variance (``*_sensitivity``).
+    """
+    from matplotlib.figure import Figure
+
+    if name not in _UNITS:
+        raise ValueError(f"name must be 'force' or 'moment', not {name!r}")
+    mc, rpm = _at_top_speed(mc)
+    values = np.sort(mc[f"{name}_amplitude"].sel(order=order).values)
+    units = _UNITS[name]
+    fig = Figure(figsize=(11, 3.8), layout="constrained")
+    hist, cdf, bars = fig.subplots(1, 3)
+    hist.hist(values, bins=min(60, max(10, values.size // 50)), color=OKABE_ITO["blue"])
+    hist.set_xlabel(f"order {order} {name} amplitude [{units}]")
+    hist.set_ylabel("samples")
+    cdf.step(values, np.arange(1, values.size + 1) / values.size, where="post", color=OKABE_ITO["blue"])
+    cdf.set_xlabel(f"order {order} {name} amplitude [{units}]")
+    cdf.set_ylabel("share of samples at or below")
+    limit = mc.get(f"p_exceed_{name}")
+    if limit is not None:
+        cdf.axvline(limit.attrs["limit"], color=OKABE_ITO["vermillion"], ls="--",
+                    label=f"limit {limit.attrs['limit']:g} {units}: {float(limit.sel(order=order)):.3g} above")
+        cdf.legend(loc="lower right")
+    share = mc[f"{name}_sensitivity"].sel(order=order)
+    ranked = sorted(zip(share.values, [str(p) for p in share["parameter"].values]))
+    bars.barh([p for _, p in ranked], [v for v, _ in ranked], color=OKABE_ITO["bluish_green"])
+    bars.set_xlim(0, 1)
+    bars.set_xlabel(f"share of the variance (R² {float(mc[f'{name}_sensitivity_r2'].sel(order=order)):.3g})")
+    fig.suptitle(f"{mc.attrs.get('engine', '')}: order {order} {name} residual over {values.size} samples at "
+                 f"{rpm:.6g} rpm", fontsize="medium")
+    return fig

@@ -369,3 +369,16 @@ def test_sweep_figure_refuses_a_map_of_a_zip_sweep():
         sweep_figure(ds, "piston.mass", "rod.mass")
     with pytest.raises(ValueError, match="not a swept key"):
         sweep_figure(ds, "geometry.rod_length")
+
+
+@pytest.mark.parametrize("distribution, words", [
+    (hb.Normal(-0.001), "sigma must not be negative"),
+    (hb.Normal("2 mm"), "is in m, the key in kg"),
+    (hb.Normal("2 furlongs"), "piston.mass"),
+    (hb.Uniform(0.002, 0.001), "low must not exceed high"),
+    (hb.WeightClasses([0.39, 0.41], [0.5, 0.6]), "summing to 1"),
+])
+def test_bad_distributions_name_the_key_and_the_scene(distribution, words):
+    with pytest.raises(SceneError) as info:
+        hb.monte_carlo(ENGINES / "v-twin-90.toml", {"piston.mass": distribution}, 10, seed=0)
+    assert words in str(info.value) and "piston.mass" in str(info.value) and "v-twin-90.toml" in str(info.value)

@@ -62,8 +62,14 @@ class Normal:
 
     sigma: float | str
 
+    def quantities(self) -> tuple:
+        return (self.sigma,)
+
     def draw(self, rng: np.random.Generator, nominal: float, n: int, key: str) -> np.ndarray:
-        return nominal + rng.normal(0.0, _si_strict(key, self.sigma), n)
+        sigma = _si_strict(key, self.sigma)
+        if sigma < 0:
+            raise _fail("<monte carlo>", key, self.sigma, "sigma must not be negative")
+        return nominal + rng.normal(0.0, sigma, n)
 
 
 @dataclass(frozen=True)
@@ -74,8 +80,14 @@ class Uniform:
     low: float | str
     high: float | str
 
+    def quantities(self) -> tuple:
+        return (self.low, self.high)
+
     def draw(self, rng: np.random.Generator, nominal: float, n: int, key: str) -> np.ndarray:
-        return nominal + rng.uniform(_si_strict(key, self.low), _si_strict(key, self.high), n)
+        low, high = _si_strict(key, self.low), _si_strict(key, self.high)
+        if not low <= high:
+            raise _fail("<monte carlo>", key, [self.low, self.high], "low must not exceed high")
+        return nominal + rng.uniform(low, high, n)
 
 
 @dataclass(frozen=True)
@@ -86,6 +98,9 @@ class WeightClasses:
 
     values: Sequence[float | str]
     probabilities: Sequence[float]
+
+    def quantities(self) -> tuple:
+        return tuple(self.values)
 
     def draw(self, rng: np.random.Generator, nominal: float, n: int, key: str) -> np.ndarray:
         values = np.array([_si_strict(key, v) for v in self.values])
@@ -659,10 +674,22 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
             raise _fail(scene.source, key, _MISSING, "not written in the scene: a tolerance is a deviation from "
                         "the nominal value, write the nominal in the scene file")
         try:
-            centre = 0.0 if nominal is None else _si(nominal)[0]
+            centre, units = (0.0, None) if nominal is None else _si(nominal)
         except QuantityError as exc:
             raise _fail(scene.source, key, nominal, str(exc)) from None
-        values[key] = dist.draw(rng, centre, int(n), key)
+        # A quantity with units of another dimension would be added as if it were SI: refuse it.
+        units = _KEY_UNITS.get(_parse_path(scene.source, key)[-1][0], units)
+        for value in (v for v in dist.quantities() if isinstance(v, str) and units is not None):
+            try:
+                given = _si(value)[1]
+            except QuantityError as exc:
+                raise _fail(scene.source, key, value, str(exc)) from None
+            if given != units:
+                raise _fail(scene.source, key, value, f"is in {given}, the key in {units}")
+        try:
+            values[key] = dist.draw(rng, centre, int(n), key)
+        except SceneError as exc:
+            raise SceneError([replace(p, source=scene.source) for p in exc.problems]) from None
     index = np.repeat(np.arange(int(n))[:, None], len(values), axis=1)
     attrs = {"title": f"harmbal Monte Carlo: {scene.name}", "mode": "monte carlo", "parameters": list(values),
              "samples": int(n), "seed": "none" if seed is None else str(seed),

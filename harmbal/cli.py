@@ -308,13 +308,19 @@ def _sweep(args) -> None:
     scene = _load(args.scene)
     if max(args.orders) > scene.sampling.max_order:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
+    def progress(done: int, total: int) -> None:
+        # Only sweeps of many geometries take long enough to report (about 1.4 ms each); every tenth.
+        if total >= 1000 and (done * 10 // total > (done - 1) * 10 // total):
+            print(f"harmbal sweep: {done} of {total} geometries read and evaluated", file=sys.stderr, flush=True)
+
     try:
         if args.monte_carlo is not None:
             ds = monte_carlo(scene, dict(args.tol), args.monte_carlo, seed=args.seed, orders=args.orders,
-                             peaks=args.peaks, force_limit=args.force_limit, moment_limit=args.moment_limit)
+                             peaks=args.peaks, force_limit=args.force_limit, moment_limit=args.moment_limit,
+                             progress=progress)
         else:
             ds = sweep(scene, dict(args.sets), mode="zip" if args.zip else "grid", orders=args.orders,
-                       peaks=args.peaks)
+                       peaks=args.peaks, progress=progress)
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except ValueError as exc:

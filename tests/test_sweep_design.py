@@ -382,3 +382,16 @@ def test_bad_distributions_name_the_key_and_the_scene(distribution, words):
     with pytest.raises(SceneError) as info:
         hb.monte_carlo(ENGINES / "v-twin-90.toml", {"piston.mass": distribution}, 10, seed=0)
     assert words in str(info.value) and "piston.mass" in str(info.value) and "v-twin-90.toml" in str(info.value)
+
+
+def test_progress_reports_each_geometry(capsys):
+    calls = []
+    hb.sweep(ENGINES / "v-twin-90.toml", {"geometry.rod_length": [0.12, 0.13, 0.14], "piston.mass": [0.38, 0.42]},
+             progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(1, 3), (2, 3), (3, 3)]
+    from harmbal.cli import main
+
+    assert main(["sweep", str(ENGINES / "v-twin-90.toml"), "--monte-carlo", "1000", "--tol",
+                 "geometry.rod_length=normal:0.01 mm", "--seed", "0"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("geometries read and evaluated") == 10 and "1000 of 1000" in err

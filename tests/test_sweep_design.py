@@ -395,3 +395,13 @@ def test_progress_reports_each_geometry(capsys):
                  "geometry.rod_length=normal:0.01 mm", "--seed", "0"]) == 0
     err = capsys.readouterr().err
     assert err.count("geometries read and evaluated") == 10 and "1000 of 1000" in err
+
+
+def test_a_shared_key_and_a_cylinder_override_of_it_are_read_per_variant():
+    # piston.mass moves both cylinders' pistons, cylinder[2].piston.mass overrides cylinder 2's: not additive.
+    ds = hb.sweep(ENGINES / "v-twin-90.toml", {"piston.mass": [0.38, 0.42], "cylinder[2].piston.mass": [0.39, 0.41]})
+    assert ds.attrs["linear_keys"] == [] and ds.attrs["geometries"] == 4
+    raw = _raw("v-twin-90")
+    raw["piston"]["mass"] = 0.38
+    raw["cylinder"][1]["piston"] = {"mass": 0.41}
+    _assert_variant_equals_analysis(ds, 1, raw)

@@ -323,9 +323,10 @@ class _Plan:
 
 
 def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str,
-          progress: Callable[[int, int], None] | None = None) -> _Plan:
+          progress: Callable[[int, int], None] | None = None, geometry_keys: frozenset = frozenset()) -> _Plan:
     """Sort the keys, read each distinct geometry once and fill the slot values of every variant
-    (``index`` (variant, key): which of each key's ``values`` a variant takes)."""
+    (``index`` (variant, key): which of each key's ``values`` a variant takes; ``geometry_keys``:
+    keys to treat as geometry whatever they move)."""
     reader = _Reader(scene)
     reason = _unsupported(scene)
     if reason:
@@ -350,7 +351,7 @@ def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str
     base_key = geometry_key(scene)
     names, base_slots = slot_values(scene)
     linear: dict[str, dict[int, float]] = {}  # key -> {slot: value of the slot per SI unit of the key}
-    for key in keys:
+    for key in (k for k in keys if k not in geometry_keys):
         coefficients = _linear_coefficients(reader, key, values[key], si[key], base_key, base_slots)
         if coefficients is not None:
             linear[key] = coefficients
@@ -378,8 +379,13 @@ def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str
         reason = _unsupported(variant)
         if reason:
             raise _fail(scene.source, ", ".join(geometry), None, reason)
-        if slot_values(variant)[0] != names:
+        names_here, slots_here = slot_values(variant)
+        if names_here != names:
             raise _fail(scene.source, ", ".join(geometry), None, "changes the scene's cylinders or unbalances")
+        # A geometry key that also moves a linear key's slot (a rod split and a rod mass): both are geometry.
+        clash = {k for k, coefficients in linear.items() if any(slots_here[s] != base_slots[s] for s in coefficients)}
+        if clash:
+            return _plan(scene, values, index, backend, progress, geometry_keys | clash)
         bases.append(linear_phasors(variant, backend=backend))
         if progress is not None:
             progress(len(bases), len(combos))

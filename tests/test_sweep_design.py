@@ -405,3 +405,9 @@ def test_a_shared_key_and_a_cylinder_override_of_it_are_read_per_variant():
     raw["piston"]["mass"] = 0.38
     raw["cylinder"][1]["piston"] = {"mass": 0.41}
     _assert_variant_equals_analysis(ds, 1, raw)
+
+
+def test_a_key_that_changes_nothing_reported_is_refused():
+    # [design] keys are read and validated, but the design is not solved per variant: the sweep says so.
+    with pytest.raises(SceneError, match="design.counterweights\\[1\\].balance_factor.*designing the balancers"):
+        hb.sweep(ENGINES / "test-single.toml", {"design.counterweights[1].balance_factor": [0.0, 0.5]})

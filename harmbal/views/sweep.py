@@ -283,9 +283,12 @@ def _linear_coefficients(reader: _Reader, key: str, values: list, si: np.ndarray
     order = np.argsort(si, kind="stable")
     probes = sorted({int(order[0]), int(order[len(order) // 2]), int(order[-1])})
     scenes = [reader.read({key: _toml_value(values[p])}) for p in probes]
-    if any(geometry_key(s) != base_key for s in scenes):
-        return None
     slots = np.array([slot_values(s)[1] for s in scenes])
+    if any(geometry_key(s) != base_key for s in scenes):
+        if (slots == base_slots).all() and all(_outputs_key(s) == _outputs_key(base_key) for s in scenes):
+            raise _fail(reader.scene.source, key, values[probes[-1]], "changes nothing a sweep reports (the free "
+                        "forces and moments); designing the balancers per variant is not done yet")
+        return None
     moved = np.flatnonzero((slots != base_slots).any(axis=0))
     x = si[probes]
     if moved.size and np.any(x == 0):
@@ -297,6 +300,13 @@ def _linear_coefficients(reader: _Reader, key: str, values: list, si: np.ndarray
             return None
         coefficients[int(s)] = float(a[0])
     return coefficients
+
+
+def _outputs_key(scene: Scene) -> Scene:
+    """The scene without what the sweep's results do not depend on: requests ([design], [verify],
+    [loads]), outlines, the flywheel (the speed fluctuation is refused), names and the firing order."""
+    return replace(geometry_key(scene), design=None, verify=None, loads=None, outlines=(), flywheel=None, name="",
+                   description="", firing_order=None)
 
 
 def _unsupported(scene: Scene) -> str | None:

@@ -7,7 +7,9 @@ with the co/counter split and order amplitudes: ``hb.sweep`` end to end (keys
 read and validated, each geometry evaluated once, the Dataset built), on one
 core (BLAS and FFT threads limited to 1 before numpy is imported). Also a
 pure mass sweep (one geometry), the same sweep with all orders 0–12, and
-with the peaks over a revolution (10⁵ variants).
+with the peaks over a revolution (10⁵ variants); Monte Carlo of the masses
+(10⁶ samples, with the percentiles and the sensitivity ranking) and of the
+masses and the rod length (every sample its own geometry).
 
 Baselines, same run, on the first variants of the same grid: per variant,
 ``load_scene`` of the modified mapping then ``hb.analyse`` (the public
@@ -95,6 +97,14 @@ def main() -> None:
         ("4 parameters, orders 1-2 + peaks (360 angles)", small_size,
          lambda: hb.sweep(scene, small, orders=[1, 2], peaks=True)),
     ]
+    mc_masses = {"piston.mass": hb.Normal("2 g"), "rod.mass": hb.Normal("1 g")}
+    mc_geometry = {**mc_masses, "geometry.rod_length": hb.Normal("0.02 mm")}
+    monte_carlo = [
+        ("piston and rod mass (normal)", 1_000_000, lambda: hb.monte_carlo(scene, mc_masses, 1_000_000, seed=1,
+                                                                          orders=[1, 2])),
+        ("the masses and the rod length (every sample a geometry)", 2_000,
+         lambda: hb.monte_carlo(scene, mc_geometry, 2_000, seed=1, orders=[1, 2])),
+    ]
     print(machine(args.repeat))
     print()
     print("| case | variants | time | variants/s |")
@@ -102,6 +112,10 @@ def main() -> None:
     for label, count, function in cases:
         seconds = best_of(function, args.repeat)
         print(f"| hb.sweep, {label} | {count:,} | {seconds:.3g} s | {count / seconds:,.0f} |", flush=True)
+    for label, count, function in monte_carlo:
+        seconds = best_of(function, args.repeat)
+        print(f"| hb.monte_carlo, {label}, orders 1-2 | {count:,} | {seconds:.3g} s | {count / seconds:,.0f} |",
+              flush=True)
     for label, count, analyse in (("load_scene + hb.analyse per variant", 200, True),
                                   ("load_scene + order_phasors per variant", 1000, False)):
         baseline(5, analyse)  # warm-up

@@ -309,7 +309,7 @@ def _sweep(args) -> None:
     if max(args.orders) > scene.sampling.max_order:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
     def progress(done: int, total: int) -> None:
-        # Only sweeps of many geometries take long enough to report (about 1.4 ms each); every tenth.
+        # Only sweeps of many geometries take long enough to report (about 0.7 ms each); every tenth.
         if total >= 1000 and (done * 10 // total > (done - 1) * 10 // total):
             print(f"harmbal sweep: {done} of {total} geometries read and evaluated", file=sys.stderr, flush=True)
 

@@ -592,7 +592,7 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
     progress : callable, optional
         Called as ``progress(done, total)`` after each distinct geometry is
         read and evaluated (the part of a sweep whose cost grows with the
-        number of geometries, about 1.4 ms each).
+        number of geometries, about 0.7 ms each).
 
     Returns
     -------

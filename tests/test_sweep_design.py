@@ -411,3 +411,26 @@ def test_a_key_that_changes_nothing_reported_is_refused():
     # [design] keys are read and validated, but the design is not solved per variant: the sweep says so.
     with pytest.raises(SceneError, match="design.counterweights\\[1\\].balance_factor.*designing the balancers"):
         hb.sweep(ENGINES / "test-single.toml", {"design.counterweights[1].balance_factor": [0.0, 0.5]})
+
+
+def test_blocks_of_variants_give_the_whole_to_round_off():
+    # What a chunked (dask) version relies on: evaluate_plan on any block of variants (slot values and geometry
+    # index of the block only) gives those variants' results. BLAS picks its kernel by the block's shape, so
+    # blocks agree with the whole to round-off, and equal blocks bit for bit.
+    from harmbal.views import sweep as sw
+
+    scene = hb.load_scene(ENGINES / "v-twin-90.toml")
+    values = {"geometry.rod_length": [0.12, 0.13, 0.14], "piston.mass": list(np.linspace(0.36, 0.44, 11)),
+              "rod.mass": list(np.linspace(0.34, 0.42, 7))}
+    index = np.indices([3, 11, 7]).reshape(3, -1).T
+    plan = sw._plan(scene, values, index, "scipy")
+    orders = np.arange(13)
+    whole = sw.evaluate_plan(plan.bases, plan.group, plan.slots, orders, 90)
+    for size in (1, 5, 64):
+        blocks = [sw.evaluate_plan(plan.bases, plan.group[i: i + size], plan.slots[i: i + size], orders, 90)
+                  for i in range(0, len(plan.group), size)]
+        for name, value in whole.items():
+            np.testing.assert_allclose(np.concatenate([b[name] for b in blocks]), value, rtol=0,
+                                       atol=1e-15 * np.abs(value).max() * 4)
+    again = sw.evaluate_plan(plan.bases, plan.group, plan.slots, orders, 90)
+    assert all(np.array_equal(again[name], whole[name]) for name in whole)

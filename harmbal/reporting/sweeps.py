@@ -50,9 +50,14 @@ def sweep_table(ds) -> str:
     # An archive gives lists of one item back as scalars.
     keys = [str(k) for k in np.atleast_1d(ds.attrs.get("parameters", []))]
     shape = ds.attrs.get("grid_shape")
-    how = f"grid {' × '.join(map(str, np.atleast_1d(shape)))}" if shape is not None else ds.attrs.get("mode", "")
+    if dim == "sample":
+        how = f"seed {ds.attrs.get('seed', 'none')}"
+    else:
+        how = f"grid {' × '.join(map(str, np.atleast_1d(shape)))}" if shape is not None else ds.attrs.get("mode", "")
+    geometries = int(ds.attrs.get("geometries", 0))
     lines = [f"harmbal {'Monte Carlo' if dim == 'sample' else 'sweep'}: {ds.attrs.get('engine', '')}: "
-             f"{count} {dim}s ({how}), {ds.attrs.get('geometries', '?')} geometries evaluated, at {rpm:.6g} rpm",
+             f"{count} {dim}s ({how}), {geometries} geometr{'y' if geometries == 1 else 'ies'} evaluated, "
+             f"at {rpm:.6g} rpm",
              "keys: " + ", ".join(f"{k} [{ds[k].attrs.get('units', 'SI')}] ({ds[k].attrs.get('kind', '')})"
                                   for k in keys),
              "residual: peak over a revolution of each order's vector; best/worst by its sum over orders "

@@ -337,10 +337,10 @@ def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str
     """Sort the keys, read each distinct geometry once and fill the slot values of every variant
     (``index`` (variant, key): which of each key's ``values`` a variant takes; ``geometry_keys``:
     keys to treat as geometry whatever they move)."""
-    reader = _Reader(scene)
     reason = _unsupported(scene)
     if reason:
         raise _fail(scene.source, "(scene)", scene.name, reason)
+    reader = _Reader(scene)
     keys = tuple(values)
     si, units = {}, {}
     for key, vals in values.items():

@@ -30,15 +30,14 @@ import os
 for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_name, "1")  # one core: set before numpy loads its BLAS
 
-import argparse  # noqa: E402
-import copy  # noqa: E402
-import time  # noqa: E402
-import tomllib  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import copy
+import time
+import tomllib
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-
-from timing import machine  # noqa: E402
+import numpy as np
+from timing import machine
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "datasets" / "engines" / "v-twin-90.toml"

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene import Model
 from . import loads
 from .kinematics import crank_pin, slider_crank
-from ..scene import Model
 
 #: The mass properties the planar loads are linear in, per cylinder: piston mass [kg], rod mass [kg] and
 #: the rod's moment of inertia about its CG [kg m²].

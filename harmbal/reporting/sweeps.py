@@ -55,9 +55,9 @@ def sweep_table(ds) -> str:
     else:
         how = f"grid {' × '.join(map(str, np.atleast_1d(shape)))}" if shape is not None else ds.attrs.get("mode", "")
     geometries = int(ds.attrs.get("geometries", 0))
-    lines = [f"harmbal {'Monte Carlo' if dim == 'sample' else 'sweep'}: {ds.attrs.get('engine', '')}: "
-             f"{count} {dim}s ({how}), {geometries} geometr{'y' if geometries == 1 else 'ies'} evaluated, "
-             f"at {rpm:.6g} rpm",
+    lines = [(f"harmbal {'Monte Carlo' if dim == 'sample' else 'sweep'}: {ds.attrs.get('engine', '')}: "
+              f"{count} {dim}s ({how}), {geometries} geometr{'y' if geometries == 1 else 'ies'} evaluated, "
+              f"at {rpm:.6g} rpm"),
              "keys: " + ", ".join(f"{k} [{ds[k].attrs.get('units', 'SI')}] ({ds[k].attrs.get('kind', '')})"
                                   for k in keys),
              "residual: peak over a revolution of each order's vector; best/worst by its sum over orders "

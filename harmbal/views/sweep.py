@@ -25,9 +25,10 @@ import copy
 import math
 import os
 import tomllib
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from numbers import Real
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 

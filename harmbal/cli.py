@@ -317,10 +317,11 @@ def _sweep(args) -> None:
         if args.monte_carlo is not None:
             ds = monte_carlo(scene, dict(args.tol), args.monte_carlo, seed=args.seed, orders=args.orders,
                              peaks=args.peaks, force_limit=args.force_limit, moment_limit=args.moment_limit,
-                             progress=progress)
+                             progress=progress, phasors=args.output is not None)
         else:
+            # The table and the figures need the amplitudes only: the phasors are kept for an archive.
             ds = sweep(scene, dict(args.sets), mode="zip" if args.zip else "grid", orders=args.orders,
-                       peaks=args.peaks, progress=progress)
+                       peaks=args.peaks, progress=progress, phasors=args.output is not None)
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except ValueError as exc:

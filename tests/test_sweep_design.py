@@ -434,3 +434,18 @@ def test_blocks_of_variants_give_the_whole_to_round_off():
                                        atol=1e-15 * np.abs(value).max() * 4)
     again = sw.evaluate_plan(plan.bases, plan.group, plan.slots, orders, 90)
     assert all(np.array_equal(again[name], whole[name]) for name in whole)
+
+
+def test_amplitudes_only_equal_the_full_sweep(monkeypatch):
+    from harmbal.views import sweep as sw
+
+    monkeypatch.setattr(sw, "_BLOCK", 7)  # several blocks, the last one short
+    keys = {"geometry.rod_length": [0.12, 0.14], "piston.mass": [0.38, 0.40, 0.42], "rod.mass": [0.36, 0.38, 0.4]}
+    full = hb.sweep(ENGINES / "v-twin-90.toml", keys, orders=[1, 2], peaks=True, peak_samples=90)
+    lean = hb.sweep(ENGINES / "v-twin-90.toml", keys, orders=[1, 2], peaks=True, peak_samples=90, phasors=False)
+    assert "force" not in lean and "moment_rotating" not in lean and lean.attrs["phasors"].startswith("no")
+    for name in ("force_amplitude", "moment_amplitude", "peak_force", "peak_moment"):
+        np.testing.assert_allclose(lean[name].values, full[name].values, rtol=1e-14)
+    mc = hb.monte_carlo(ENGINES / "v-twin-90.toml", {"piston.mass": hb.Normal(0.002)}, 30, seed=4, orders=[1],
+                        phasors=False)
+    assert "force" not in mc and mc["force_amplitude_percentile"].sizes == {"percentile": 4, "order": 1}

@@ -449,3 +449,19 @@ def test_amplitudes_only_equal_the_full_sweep(monkeypatch):
     mc = hb.monte_carlo(ENGINES / "v-twin-90.toml", {"piston.mass": hb.Normal(0.002)}, 30, seed=4, orders=[1],
                         phasors=False)
     assert "force" not in mc and mc["force_amplitude_percentile"].sizes == {"percentile": 4, "order": 1}
+
+
+def test_campbell_map_of_a_speed_sweep(tmp_path):
+    from harmbal.reporting.plots import save_figure
+    from harmbal.reporting.sweep_plots import campbell_figure
+
+    scene = hb.load_scene(ENGINES / "v-twin-90.toml").with_speeds(np.linspace(100.0, 900.0, 9))
+    orders = hb.analyse(scene)["orders"].ds
+    fig = campbell_figure(orders)
+    mesh = fig.axes[0].collections[0]
+    # the order amplitudes grow exactly as ω²: the colours' data at the top speed are 81 × the lowest
+    data = np.asarray(mesh.get_array()).reshape(orders.sizes["order"], 9)
+    np.testing.assert_allclose(data[1, -1] / data[1, 0], 81, rtol=1e-12)
+    save_figure(fig, tmp_path / "campbell.svg")
+    with pytest.raises(ValueError, match="several speeds"):
+        campbell_figure(hb.analyse(hb.load_scene(ENGINES / "v-twin-90.toml"))["orders"].ds)

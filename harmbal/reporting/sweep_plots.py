@@ -1,7 +1,8 @@
 """Figures of design sweeps and Monte Carlo runs: an order's residual against a
-swept key (a line, or a map over two keys), and the distribution of the
-residual under production tolerances with the tolerances ranked by how much
-of its variance they explain.
+swept key (a line, or a map over two keys), the distribution of the residual
+under production tolerances with the tolerances ranked by how much of its
+variance they explain, and the order-against-speed (Campbell) map of a speed
+sweep.
 
 Like :mod:`harmbal.reporting.plots`, the figures use
 :class:`matplotlib.figure.Figure` directly (never pyplot), and matplotlib is
@@ -152,4 +153,46 @@ def monte_carlo_figure(mc: xr.Dataset, *, order: int = 1, name: str = "force") -
     bars.set_xlabel(f"share of the variance (R² {float(mc[f'{name}_sensitivity_r2'].sel(order=order)):.3g})")
     fig.suptitle(f"{mc.attrs.get('engine', '')}: order {order} {name} residual over {values.size} samples at "
                  f"{rpm:.6g} rpm", fontsize="medium")
+    return fig
+
+
+def campbell_figure(orders: xr.Dataset, *, name: str = "force") -> Figure:
+    """Order against crank speed: the amplitude of each order's vector over a speed sweep.
+
+    Parameters
+    ----------
+    orders : xarray.Dataset
+        ``/orders`` of :func:`harmbal.analyse` (or :func:`harmbal.order_spectrum`)
+        of a scene with several speeds (half orders too, with gas).
+    name : {"force", "moment"}
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A map over (rpm, order) of the peak over a revolution of each order's
+        vector, √((Σ|C_a|² + |Σ C_a²|)/2), on a logarithmic colour scale
+        (inertial orders grow as ω², gas orders do not).
+    """
+    from matplotlib.colors import LogNorm
+    from matplotlib.figure import Figure
+
+    from ..views.sweep import order_amplitude
+
+    if name not in _UNITS:
+        raise ValueError(f"name must be 'force' or 'moment', not {name!r}")
+    if "speed" not in orders.dims or orders.sizes["speed"] < 2:
+        raise ValueError("a Campbell map needs a scene with several speeds (engine.speed as a list or a sweep)")
+    phasor = orders[name].transpose("speed", "order", "axis").values
+    amplitude = order_amplitude(phasor)
+    rpm, order = orders["rpm"].values, orders["order"].values
+    positive = amplitude[amplitude > 0]
+    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+    ax = fig.add_subplot()
+    floor = positive.max() * 1e-6 if positive.size else 1.0
+    mesh = ax.pcolormesh(rpm, order, np.maximum(amplitude, floor).T, shading="nearest", cmap="viridis",
+                         norm=LogNorm(vmin=floor, vmax=max(floor, float(amplitude.max()))))
+    fig.colorbar(mesh, ax=ax, label=f"{name} amplitude [{_UNITS[name]}] (floor 1e-6 of the largest)")
+    ax.set_xlabel("crank speed [rpm]")
+    ax.set_ylabel("order")
+    ax.set_title(f"{orders.attrs.get('engine', '')}: {name} per order and speed", fontsize="medium")
     return fig

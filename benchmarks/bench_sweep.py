@@ -41,7 +41,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from timing import machine
+from timing import best_seconds, machine
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "datasets" / "engines" / "v-twin-90.toml"
@@ -52,16 +52,6 @@ GRID = {
     "piston.mass": np.linspace(0.36, 0.44, 100),
     "rod.mass": np.linspace(0.34, 0.42, 100),
 }
-
-
-def best_of(function, repeat: int) -> float:
-    function()
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def baseline(count: int, analyse: bool) -> float:
@@ -128,10 +118,10 @@ def main() -> None:
     print(f"| hb.sweep, 4 parameters (10 × 10 × 100 × 1000), amplitudes only, reduced to the best variant and "
           f"percentiles (peak RSS {peak:.2f} GB) | 10,000,000 | {seconds:.3g} s | {1e7 / seconds:,.0f} |", flush=True)
     for label, count, function in cases:
-        seconds = best_of(function, args.repeat)
+        seconds = best_seconds(function, args.repeat)
         print(f"| hb.sweep, {label} | {count:,} | {seconds:.3g} s | {count / seconds:,.0f} |", flush=True)
     for label, count, function in monte_carlo:
-        seconds = best_of(function, args.repeat)
+        seconds = best_seconds(function, args.repeat)
         print(f"| hb.monte_carlo, {label}, orders 1-2 | {count:,} | {seconds:.3g} s | {count / seconds:,.0f} |",
               flush=True)
     for label, count, analyse in (("load_scene + hb.analyse per variant", 200, True),

@@ -19,16 +19,26 @@ def min_seconds(function, repeat: int) -> float:
     return min(timer.repeat(repeat=repeat, number=number)) / number
 
 
-def median_seconds(function, repeat: int) -> float:
-    """Median of ``repeat`` timed calls, after one warm-up call (imports and
-    caches paid once)."""
+def _timed_calls(function, repeat: int) -> list[float]:
+    """Seconds of ``repeat`` calls, after one warm-up call (imports and caches paid once)."""
     function()
     samples = []
     for _ in range(repeat):
         start = time.perf_counter()
         function()
         samples.append(time.perf_counter() - start)
-    return statistics.median(samples)
+    return samples
+
+
+def median_seconds(function, repeat: int) -> float:
+    """Median of ``repeat`` timed calls, after one warm-up call."""
+    return statistics.median(_timed_calls(function, repeat))
+
+
+def best_seconds(function, repeat: int) -> float:
+    """Fastest of ``repeat`` timed calls, after one warm-up call (for long
+    calls, where timeit's loop would take too long)."""
+    return min(_timed_calls(function, repeat))
 
 
 def machine(repeat: int) -> str:

@@ -22,7 +22,7 @@ import numpy as np
 
 from .evaluate import ON_GRID
 from .kinematics import slider_crank
-from .pressure import check_gas, cylinder_pressure
+from .pressure import check_gas, cylinder_pressure, stroke, top_dead_centre_travel
 from ..scene import Scene
 from ..scene.firing import cylinder_firing
 
@@ -122,12 +122,8 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
                                         theta - firing_angle[i])
         force[i] = (pressure[i] - gas.crankcase_pressure) * gas.piston_area
         torque[i] = -force[i] * kin.db
-        # The pin's extremes of the offset slider-crank, with rod and crank in line.
-        e = c.offset
-        top = np.sqrt((c.rod_length + c.crank_radius) ** 2 - e * e)
-        bottom = np.sqrt((c.rod_length - c.crank_radius) ** 2 - e * e)
-        volume[i] = gas.piston_area * (top - kin.b)
-        swept[i] = gas.piston_area * (top - bottom)
+        volume[i] = gas.piston_area * (top_dead_centre_travel(c.crank_radius, c.rod_length, c.offset) - kin.b)
+        swept[i] = gas.piston_area * stroke(c.crank_radius, c.rod_length, c.offset)
     for i, first, steps in shifted:
         k = steps % m
         for values in (pressure, force, torque, volume):  # np.roll by k, without its copies

@@ -69,10 +69,16 @@ def bottom_dead_centre_angle(crank_radius: float, rod_length: float, offset: flo
     return math.pi + math.asin(offset / (rod_length - crank_radius))
 
 
+def top_dead_centre_travel(crank_radius: float, rod_length: float, offset: float) -> float:
+    """Piston-pin travel c_B [m] along the cylinder axis at top dead centre,
+    crank and rod in line: √((l+r)² − e²)."""
+    return math.sqrt((rod_length + crank_radius) ** 2 - offset**2)
+
+
 def stroke(crank_radius: float, rod_length: float, offset: float) -> float:
     """Piston stroke [m] of an offset slider-crank: √((l+r)² − e²) − √((l−r)² − e²) (2r when e = 0)."""
-    return (math.sqrt((rod_length + crank_radius) ** 2 - offset**2)
-            - math.sqrt((rod_length - crank_radius) ** 2 - offset**2))
+    bottom = math.sqrt((rod_length - crank_radius) ** 2 - offset**2)
+    return top_dead_centre_travel(crank_radius, rod_length, offset) - bottom
 
 
 def cylinder_pressure(gas: Gas, crank_radius: float, rod_length: float, offset: float, cycle: int,
@@ -282,7 +288,7 @@ def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
     area = math.pi * bore**2 / 4
     psi_tdc = firing_tdc_angle(r, l, e)
     psi_bdc = bottom_dead_centre_angle(r, l, e)
-    c_tdc = math.sqrt((l + r) ** 2 - e * e)
+    c_tdc = top_dead_centre_travel(r, l, e)
     swept = area * stroke(r, l, e)
     clearance = swept / (c.compression_ratio - 1)
     ivc, evo = psi_bdc - 2 * math.pi - psi_tdc, psi_bdc - psi_tdc

@@ -277,17 +277,17 @@ def _distinct_cylinders(scene) -> list[str]:
 
 
 def _shown_speeds(rpm) -> tuple[list[int], str]:
-    """Indices of the speeds given a row in the per-speed tables, and a note
-    naming those left out: a sweep longer than the CLI prints shows its
-    lowest and highest speed only (every speed is in the Datasets)."""
-    from .tables import PRINTED_SPEEDS
+    """Indices of the speeds given a row in the per-speed tables (those the
+    CLI prints), and a note naming those left out; every speed is in the
+    Datasets."""
+    from .tables import _printed_speeds
 
     rpm = np.atleast_1d(rpm)
-    if rpm.size <= PRINTED_SPEEDS:
-        return list(range(rpm.size)), ""
-    return [int(np.argmin(rpm)), int(np.argmax(rpm))], (
-        f'<p class="note">{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the lowest and the highest '
-        "are shown; every speed is in the Datasets.</p>")
+    shown = list(_printed_speeds(rpm, []))
+    if len(shown) == rpm.size:
+        return shown, ""
+    return shown, (f'<p class="note">{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the lowest and '
+                   "the highest are shown; every speed is in the Datasets.</p>")
 
 
 def _torque(page: _Page, scene, tree) -> None:
@@ -456,12 +456,13 @@ def _loads(page: _Page, scene, tree) -> None:
 def _clearance(page: _Page, tree) -> None:
     if "clearance" not in tree.children:
         return
+    from .tables import collisions_first
+
     ds = tree["clearance"].ds
     distance, collision = ds["min_distance"].values, ds["collision"].values
-    order = sorted(range(distance.size), key=lambda i: (not collision[i], distance[i]))
     rows = [[str(ds["pair"].values[i]), f"{ds['body_a'].values[i]} / {ds['body_b'].values[i]}",
              f"{distance[i] * 1e3:.4f} mm", f"{math.degrees(float(ds['angle'].values[i])):.1f}°",
-             "COLLISION" if collision[i] else "clear"] for i in order]
+             "COLLISION" if collision[i] else "clear"] for i in collisions_first(ds)]
     verdict = (f"<strong>{int(collision.sum())} of {distance.size} pairs collide.</strong>" if collision.any()
                else f"No collision: the closest of {distance.size} pairs are {distance.min() * 1e3:.4g} mm apart."
                if distance.size else "No two outlines can meet (different bodies, overlapping axial ranges).")

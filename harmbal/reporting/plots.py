@@ -604,6 +604,11 @@ def _order_label(order: float) -> str:
     return f"{order:g}"
 
 
+def _order_step(order: np.ndarray) -> float:
+    """Spacing of an order axis: 1, or ½ for the half orders of a four-stroke with gas."""
+    return float(np.min(np.diff(order))) if order.size > 1 else 1.0
+
+
 def _order_axis(ax: Axes, order, max_labels: int = MAX_ORDER_LABELS) -> None:
     """Ticks at every order of ``order`` (whole or half orders), labelled
     ``1.5`` rather than ``1.50``; with more than ``max_labels`` orders only
@@ -613,7 +618,7 @@ def _order_axis(ax: Axes, order, max_labels: int = MAX_ORDER_LABELS) -> None:
     labelled = order if order.size <= max_labels else order[order == np.round(order)]
     ax.set_xticks(labelled, [_order_label(k) for k in labelled])
     ax.set_xticks(np.setdiff1d(order, labelled), minor=True)
-    step = float(np.min(np.diff(order))) if order.size > 1 else 1.0
+    step = _order_step(order)
     ax.set_xlim(order[0] - 0.6 * step, order[-1] + 0.6 * step)
     ax.set_xlabel("order k [cycles/rev]", fontsize=8)
 
@@ -651,7 +656,7 @@ def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], la
     amplitude = np.abs(phasors.transpose("order", dim).values)
     heights = np.where(is_balanced(amplitude, scale, rtol), 0.0, amplitude)
     entries = [str(e) for e in phasors[dim].values]
-    width = 0.8 * (float(np.min(np.diff(order))) if order.size > 1 else 1.0) / len(entries)
+    width = 0.8 * _order_step(order) / len(entries)
     for j, entry in enumerate(entries):
         keep = heights[:, j] > 0 if log else np.ones(len(order), dtype=bool)
         bars = ax.bar(order[keep] + (j - (len(entries) - 1) / 2) * width, heights[keep, j], width,
@@ -1128,7 +1133,7 @@ def torque_spectrum_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     sel = sel.isel(order=slice(1, None))  # the mean is the mean torque, drawn in torque_figure
     order = np.asarray(sel["order"].values, dtype=float)
     scale = torque_scale(torque)
-    step = float(np.min(np.diff(order))) if order.size > 1 else 1.0
+    step = _order_step(order)
     width = 0.4 * step
     fig = Figure(figsize=(10.0, 4.4), layout="constrained")
     ax = fig.add_subplot()

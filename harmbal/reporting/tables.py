@@ -426,6 +426,12 @@ def loads_table(loads) -> str:
     return "\n".join(lines)
 
 
+def collisions_first(clearance) -> list[int]:
+    """Pair indices of a clearance Dataset, collisions first, then by distance."""
+    distance, collision = clearance["min_distance"].values, clearance["collision"].values
+    return sorted(range(distance.size), key=lambda i: (not collision[i], distance[i]))
+
+
 def clearance_table(clearance) -> str:
     """The smallest distance between every two parts over a revolution, from
     :func:`harmbal.clearance` (``/clearance``); collisions first."""
@@ -436,7 +442,7 @@ def clearance_table(clearance) -> str:
     distance = clearance["min_distance"].values
     width = max(len(str(p)) for p in clearance["pair"].values) + 2
     lines.append(f"  {'parts':<{width}}{'bodies':<24}{'min [mm]':>10}{'at θ':>9}  result")
-    for i in sorted(range(distance.size), key=lambda j: (not clearance["collision"].values[j], distance[j])):
+    for i in collisions_first(clearance):
         bodies = f"{clearance['body_a'].values[i]} / {clearance['body_b'].values[i]}"
         lines.append(f"  {str(clearance['pair'].values[i]):<{width}}{bodies:<24}{distance[i] * 1e3:>10.4f}"
                      f"{np.degrees(clearance['angle'].values[i]):>8.1f}°  "

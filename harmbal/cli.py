@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 from ._version import __version__
@@ -158,7 +159,14 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--moment-limit", type=float, metavar="NM",
                        help="Monte Carlo: the same for the moment [N m]")
     sweep.add_argument("--peaks", action="store_true", help="also the peak force and moment over a revolution")
-    sweep.add_argument("-o", "--output", type=Path, help="write the results to this netCDF archive (.nc)")
+    sweep.add_argument("-o", "--output", type=Path,
+                       help="write the results to this netCDF archive (.nc) or Zarr store (.zarr, needs harmbal[dask])")
+    sweep.add_argument("--chunks", type=_positive_int, metavar="N",
+                       help="evaluate on dask, N variants per chunk: the results are reduced (and written with -o) "
+                            "chunk by chunk, never all in memory, with dask's progress bar (needs harmbal[dask])")
+    sweep.add_argument("--scheduler", default="threads", metavar="SPEC",
+                       help="with --chunks: threads (default), processes, sync, local:N (a local dask.distributed "
+                            "cluster of N worker processes) or the address of a dask scheduler (tcp://host:port)")
     sweep.add_argument("--plot", type=Path, metavar="FILE",
                        help="draw the first order's force residual to FILE (.svg or .png): over the first two keys "
                             "of a grid (a map) or the first key; for Monte Carlo its histogram, CDF and the "
@@ -292,7 +300,16 @@ def _sweep(args) -> None:
     from .views.sweep import monte_carlo, sweep
 
     if args.output is not None:
-        _check_output(args.output, (".nc",), "the sweep is written as a netCDF archive (.nc)")
+        _check_output(args.output, (".nc", ".zarr"), "the sweep is written as a netCDF archive (.nc) or a Zarr store "
+                      "(.zarr)")
+    if args.chunks is None and args.scheduler != "threads":
+        raise _BadInput("--scheduler needs --chunks N")
+    if args.scheduler not in ("threads", "sync") and args.output is not None and args.output.suffix == ".nc":
+        # HDF5 files are locked by the process that opens them: dask's workers cannot add chunks to a netCDF file.
+        raise _BadInput(f"{args.output}: --scheduler {args.scheduler}: a netCDF archive is written from one process; "
+                        "write a Zarr store (-o OUT.zarr) with several processes, or use --scheduler threads")
+    if args.chunks is not None or (args.output is not None and args.output.suffix == ".zarr"):
+        _check_dask(args.output is not None and args.output.suffix == ".zarr")
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     if args.monte_carlo is None and args.tol:
@@ -308,34 +325,44 @@ def _sweep(args) -> None:
     scene = _load(args.scene)
     if max(args.orders) > scene.sampling.max_order:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
-    def progress(done: int, total: int) -> None:
-        # Only sweeps of many geometries take long enough to report (about 0.7 ms each); every tenth.
-        if total >= 1000 and (done * 10 // total > (done - 1) * 10 // total):
-            print(f"harmbal sweep: {done} of {total} geometries read and evaluated", file=sys.stderr, flush=True)
+    from .reporting.progress import ProgressBar
 
+    # Only sweeps of many geometries take long enough to report (about 0.7 ms each).
+    bar = ProgressBar("harmbal sweep: geometries read and evaluated", minimum=1000)
     try:
         if args.monte_carlo is not None:
             ds = monte_carlo(scene, dict(args.tol), args.monte_carlo, seed=args.seed, orders=args.orders,
                              peaks=args.peaks, force_limit=args.force_limit, moment_limit=args.moment_limit,
-                             progress=progress, phasors=args.output is not None)
+                             progress=bar, phasors=args.output is not None, chunks=args.chunks)
         else:
             # The table and the figures need the amplitudes only: the phasors are kept for an archive.
             ds = sweep(scene, dict(args.sets), mode="zip" if args.zip else "grid", orders=args.orders,
-                       peaks=args.peaks, progress=progress, phasors=args.output is not None)
+                       peaks=args.peaks, progress=bar, phasors=args.output is not None, chunks=args.chunks)
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except ValueError as exc:
         raise _BadInput(str(exc)) from None
-    from .reporting.sweeps import sweep_table
+    from .reporting.sweeps import sweep_table, table_inputs
 
-    print(sweep_table(ds))
+    archive = None
     if args.output is not None:
         from .analysis import scene_dataset
-        from .io.archive import save
         from .labelled import tree
 
-        save(tree({"title": ds.attrs["title"], "engine": scene.name, "harmbal_version": __version__},
-                  {"scene": scene_dataset(scene), "sweep": ds}), args.output)
+        archive = tree({"title": ds.attrs["title"], "engine": scene.name, "harmbal_version": __version__},
+                       {"scene": scene_dataset(scene), "sweep": ds})
+    from .io.archive import save, save_and_compute
+
+    with _dask_scheduler(args.scheduler if args.chunks else None):
+        if archive is not None and args.chunks:
+            # One pass: each chunk is evaluated once, for the archive and for the table.
+            table = sweep_table(save_and_compute(archive, args.output, table_inputs(ds))[1])
+        else:
+            if archive is not None:
+                save(archive, args.output)
+            table = sweep_table(ds)
+    print(table)
+    if args.output is not None:
         print(f"\nwrote {args.output}")
     if args.plot is not None:
         from .reporting.plots import save_figure
@@ -350,6 +377,57 @@ def _sweep(args) -> None:
             figure = sweep_figure(ds, keys[0])
         save_figure(figure, args.plot)
         print(f"\nwrote {args.plot}")
+
+
+def _check_dask(zarr: bool) -> None:
+    import importlib.util
+
+    missing = [m for m in ("dask", "zarr" if zarr else "dask") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise _BadInput(f"{'--chunks' if 'dask' in missing else '-o *.zarr'} needs {', '.join(sorted(set(missing)))}: "
+                        "pip install \"harmbal[dask]\"")
+
+
+@contextmanager
+def _dask_scheduler(spec: str | None):
+    """Run the enclosed dask computations on the scheduler ``spec`` (see
+    ``--scheduler``) with dask's progress display: a progress bar on stderr
+    for the local schedulers, the dashboard's address for a cluster."""
+    if spec is None:
+        yield
+        return
+    import dask
+
+    if spec in ("threads", "processes", "sync"):
+        from dask.diagnostics import ProgressBar
+
+        with dask.config.set(scheduler=spec), ProgressBar(out=sys.stderr):
+            yield
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise _BadInput("--scheduler: a cluster needs dask.distributed: pip install \"harmbal[dask]\"") from None
+    cluster = None
+    if spec.startswith("local:"):
+        workers = spec.partition(":")[2]
+        if not workers.isdigit() or int(workers) < 1:
+            raise _BadInput(f"--scheduler: {spec!r}: local:N needs a number of workers N ≥ 1")
+        cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=":0")
+    elif "://" not in spec:
+        raise _BadInput(f"--scheduler: {spec!r}: give threads, processes, sync, local:N or tcp://host:port")
+    try:
+        try:
+            client = Client(cluster if cluster is not None else spec, timeout="10s")
+        except OSError as exc:
+            raise _BadInput(f"--scheduler: cannot reach {spec} ({exc})") from None
+        with client:
+            print(f"harmbal sweep: dask cluster {client.scheduler.address}, progress at {client.dashboard_link}",
+                  file=sys.stderr, flush=True)
+            yield
+    finally:
+        if cluster is not None:
+            cluster.close()
 
 
 def _sweep_values(key: str, text: str) -> list:

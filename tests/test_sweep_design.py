@@ -414,25 +414,25 @@ def test_a_key_that_changes_nothing_reported_is_refused():
 
 
 def test_blocks_of_variants_give_the_whole_to_round_off():
-    # What a chunked (dask) version relies on: evaluate_plan on any block of variants (slot values and geometry
-    # index of the block only) gives those variants' results. BLAS picks its kernel by the block's shape, so
-    # blocks agree with the whole to round-off, and equal blocks bit for bit.
+    # What chunking relies on: any block of variants, evaluated from the plan alone, gives those variants'
+    # results. BLAS picks its kernel by the block's shape, so blocks agree with the whole to round-off, and
+    # equal blocks bit for bit.
     from harmbal.views import sweep as sw
 
     scene = hb.load_scene(ENGINES / "v-twin-90.toml")
     values = {"geometry.rod_length": [0.12, 0.13, 0.14], "piston.mass": list(np.linspace(0.36, 0.44, 11)),
               "rod.mass": list(np.linspace(0.34, 0.42, 7))}
-    index = np.indices([3, 11, 7]).reshape(3, -1).T
-    plan = sw._plan(scene, values, index, "scipy")
-    orders = np.arange(13)
-    whole = sw.evaluate_plan(plan.bases, plan.group, plan.slots, orders, 90)
+    plan = sw._plan(scene, values, sw._Variants((3, 11, 7), "grid"), "scipy")
+    options = {"orders": np.arange(13), "peak_samples": 90, "w2": 1.0, "phasors": True}
+    whole = sw._evaluate_block(plan, 0, 231, **options)
+    assert set(whole) == {"force", "moment", "force_rotating", "moment_rotating", "force_amplitude",
+                          "moment_amplitude", "peak_force", "peak_moment", *values}
+    np.testing.assert_array_equal(whole["piston.mass"], np.tile(np.repeat(values["piston.mass"], 7), 3))
     for size in (1, 5, 64):
-        blocks = [sw.evaluate_plan(plan.bases, plan.group[i: i + size], plan.slots[i: i + size], orders, 90)
-                  for i in range(0, len(plan.group), size)]
+        blocks = sw._evaluate(plan, size, **options)
         for name, value in whole.items():
-            np.testing.assert_allclose(np.concatenate([b[name] for b in blocks]), value, rtol=0,
-                                       atol=1e-15 * np.abs(value).max() * 4)
-    again = sw.evaluate_plan(plan.bases, plan.group, plan.slots, orders, 90)
+            np.testing.assert_allclose(blocks[name], value, rtol=0, atol=1e-15 * np.abs(value).max() * 4)
+    again = sw._evaluate_block(plan, 0, 231, **options)
     assert all(np.array_equal(again[name], whole[name]) for name in whole)
 
 

@@ -51,8 +51,8 @@ def _encode(ds):
     for name, var in ds.data_vars.items():
         for stored, variable, attrs in _unscaled(name, var.variable, dict(var.attrs)):
             if np.iscomplexobj(variable.dtype.type()):
-                values = variable.values
-                variable = xr.Variable(variable.dims + (PART,), np.stack([values.real, values.imag], axis=-1))
+                # Variable.concat and .real/.imag keep a dask array lazy: a chunked sweep is written chunk by chunk.
+                variable = xr.Variable.concat([variable.real, variable.imag], dim=PART).transpose(..., PART)
                 attrs[_ENCODING_ATTR] = _ENCODING
             if variable is not var.variable:
                 out[stored] = xr.Variable(variable.dims, variable.data, attrs)
@@ -112,31 +112,58 @@ def _decode(ds):
 
 
 def save(tree, path: str | os.PathLike) -> Path:
-    """Write an analysis tree to a netCDF-4 file, atomically.
+    """Write an analysis tree to a netCDF-4 file (or a Zarr store), atomically.
 
     The file is first written next to its destination and moved into place
-    only when complete, so a failed write leaves no file behind.
+    only when complete, so a failed write leaves no file behind. Variables
+    held as dask arrays (a chunked sweep) are evaluated and written chunk by
+    chunk, never all in memory.
 
     Parameters
     ----------
     tree : xarray.DataTree
         From :func:`harmbal.analyse`.
     path : path-like
-        Destination, conventionally ``*.nc``.
+        Destination: ``*.nc`` for netCDF-4, ``*.zarr`` for a Zarr store (a
+        folder; needs the ``zarr`` package, in the ``dask`` extra).
 
     Returns
     -------
     pathlib.Path
         The path written.
     """
+    return save_and_compute(tree, path)[0]
+
+
+def save_and_compute(tree, path: str | os.PathLike, *collections) -> tuple:
+    """:func:`save`, computing the dask ``collections`` in the same pass as
+    the write: what they share with the tree (a chunked sweep's summary and
+    its archive) is evaluated once.
+
+    Returns
+    -------
+    tuple
+        The path written, then each of ``collections`` computed.
+    """
     import xarray as xr
 
     path = Path(path)
+    zarr = path.suffix == ".zarr"
     encoded = xr.DataTree.from_dict(_share_speeds({node.path: _encode(node.to_dataset(inherit=False))
                                                    for node in tree.subtree}))
-    with atomic_path(path) as tmp:
-        encoded.to_netcdf(tmp, engine="h5netcdf")
-    return path
+    with atomic_path(path, directory=zarr) as tmp:
+        lazy = bool(collections)
+        if zarr:
+            # Zarr format 2: its fixed-length strings and consolidated metadata are specified (format 3: not yet).
+            write = encoded.to_zarr(tmp, mode="w", compute=not lazy, consolidated=True, zarr_format=2)
+        else:
+            write = encoded.to_netcdf(tmp, engine="h5netcdf", compute=not lazy)
+        computed = ()
+        if lazy:
+            import dask
+
+            computed = dask.compute(write, *collections)[1:]
+    return (path, *computed)
 
 
 def _share_speeds(nodes: dict) -> dict:
@@ -171,7 +198,8 @@ def _unshare_speeds(nodes: dict) -> dict:
 
 
 def open_archive(path: str | os.PathLike):
-    """Read an archive written by :func:`save`, complex values restored.
+    """Read an archive written by :func:`save` (netCDF, or Zarr if the path
+    ends in ``.zarr``), complex values restored.
 
     Returns
     -------
@@ -181,12 +209,13 @@ def open_archive(path: str | os.PathLike):
     Raises
     ------
     ArchiveError
-        If the file is not a netCDF-4/HDF5 file.
+        If the file is not a netCDF-4/HDF5 file (or a Zarr store).
     """
     import xarray as xr
 
+    engine = "zarr" if Path(path).suffix == ".zarr" else "h5netcdf"
     try:
-        with xr.open_datatree(path, engine="h5netcdf") as stored:
+        with xr.open_datatree(path, engine=engine) as stored:
             stored.load()
             groups = _unshare_speeds({node.path: node.to_dataset(inherit=False) for node in stored.subtree})
             nodes = {path: _decode(ds) for path, ds in groups.items()}

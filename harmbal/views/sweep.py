@@ -323,23 +323,105 @@ def _unsupported(scene: Scene) -> str | None:
     return None
 
 
+@dataclass(frozen=True)
+class _Variants:
+    """Which of each key's values every variant takes: ``index(start, stop)``
+    gives a block's (variant, key) value numbers, never the whole table (10⁷
+    variants of 4 keys would hold 320 MB of it)."""
+
+    lengths: tuple[int, ...]
+    mode: str
+
+    @property
+    def count(self) -> int:
+        return math.prod(self.lengths) if self.mode == "grid" else self.lengths[0]
+
+    def index(self, start: int, stop: int) -> np.ndarray:
+        numbers = np.arange(start, stop)
+        if self.mode == "grid":  # the first key varies slowest
+            return np.stack(np.unravel_index(numbers, self.lengths), axis=-1)
+        return np.repeat(numbers[:, None], len(self.lengths), axis=1)
+
+    def combination(self, index: np.ndarray, columns: list[int]) -> np.ndarray:
+        """The number of each variant's combination of the values of the keys
+        in ``columns`` (of a grid: its flat index among all combinations; of
+        zip: the value number, the same for every key)."""
+        if self.mode == "grid":
+            return np.ravel_multi_index(tuple(index[:, c] for c in columns), tuple(self.lengths[c] for c in columns))
+        return index[:, 0]
+
+    def combinations(self, columns: list[int]) -> np.ndarray:
+        """The sorted numbers of the combinations that occur (one, of no keys)."""
+        if not columns:
+            return np.zeros(1, dtype=int)
+        return np.arange(math.prod(self.lengths[c] for c in columns) if self.mode == "grid" else self.count)
+
+    def values_of(self, combination: int, columns: list[int]) -> tuple[int, ...]:
+        """The value number of each key in ``columns`` in a combination."""
+        if self.mode == "grid":
+            return tuple(int(i) for i in np.unravel_index(combination, tuple(self.lengths[c] for c in columns)))
+        return (int(combination),) * len(columns)
+
+
 @dataclass
 class _Plan:
+    """Everything a block of variants needs, small whatever the number of variants."""
+
     keys: tuple[str, ...]
-    coords: dict[str, np.ndarray]       # SI value of each key per variant
+    si: dict[str, np.ndarray]            # SI value of each of a key's values
     units: dict[str, str | None]
-    linear: tuple[str, ...]
+    linear: dict[str, dict[int, float]]  # linear key -> {slot: slot value per SI unit of the key}
     geometry: tuple[str, ...]
+    variants: _Variants
+    combos: np.ndarray                   # sorted flat numbers of the geometry combinations, one per basis
     bases: list[LinearPhasors]           # one per distinct geometry
-    group: np.ndarray                    # (variant,) index into bases
-    slots: np.ndarray                    # (variant, slot) slot values
+    base_slots: np.ndarray               # (geometry, slot) the slot values each geometry was read with
+    sense: int
+
+    def block(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Geometry (variant,), slot values (variant, slot) and key values {key: (variant,)} of a block."""
+        index = self.variants.index(start, stop)
+        if self.geometry:
+            columns = [self.keys.index(k) for k in self.geometry]
+            group = np.searchsorted(self.combos, self.variants.combination(index, columns))
+        else:
+            group = np.zeros(len(index), dtype=int)
+        slots = self.base_slots[group]
+        coords = {k: self.si[k][index[:, i]] for i, k in enumerate(self.keys)}
+        for key, coefficients in self.linear.items():
+            for s, a in coefficients.items():
+                slots[:, s] = coords[key] if a == 1.0 else a * coords[key]
+        return group, slots, coords
 
 
-def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str,
+def _si_values(source: str, key: str, vals) -> tuple[np.ndarray, str | None]:
+    """A key's values in SI and their units (None for plain numbers); a numeric
+    array (Monte Carlo draws) is taken as SI without a loop over its items."""
+    if isinstance(vals, np.ndarray) and vals.dtype.kind in "iuf":
+        si = vals.astype(float)
+        bad = np.flatnonzero(~np.isfinite(si))
+        if bad.size:
+            raise _fail(source, key, vals[bad[0]], "must be finite")
+        return si, None
+    converted, units = [], None
+    for v in vals:
+        try:
+            value, unit = _si(v)
+        except QuantityError as exc:
+            raise _fail(source, key, v, str(exc)) from None
+        if not math.isfinite(value):
+            raise _fail(source, key, v, "must be finite")
+        converted.append(value)
+        units = units or unit
+    return np.array(converted), units
+
+
+def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backend: str,
           progress: Callable[[int, int], None] | None = None, geometry_keys: frozenset = frozenset()) -> _Plan:
-    """Sort the keys, read each distinct geometry once and fill the slot values of every variant
-    (``index`` (variant, key): which of each key's ``values`` a variant takes; ``geometry_keys``:
-    keys to treat as geometry whatever they move)."""
+    """Sort the keys, read each distinct geometry once and keep what every
+    block of variants needs (``values``: each key's values; ``variants``:
+    which of them each variant takes; ``geometry_keys``: keys to treat as
+    geometry whatever they move)."""
     reason = _unsupported(scene)
     if reason:
         raise _fail(scene.source, "(scene)", scene.name, reason)
@@ -348,22 +430,12 @@ def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str
     si, units = {}, {}
     for key, vals in values.items():
         _parse_path(scene.source, key)
-        converted = []
-        for v in vals:
-            try:
-                value, unit = _si(v)
-            except QuantityError as exc:
-                raise _fail(scene.source, key, v, str(exc)) from None
-            if not math.isfinite(value):
-                raise _fail(scene.source, key, v, "must be finite")
-            converted.append(value)
-            units.setdefault(key, unit)
-        si[key] = np.array(converted)
-        units[key] = _KEY_UNITS.get(_parse_path(scene.source, key)[-1][0], units.get(key))
+        si[key], units[key] = _si_values(scene.source, key, vals)
+        units[key] = _KEY_UNITS.get(_parse_path(scene.source, key)[-1][0], units[key])
 
     base_key = geometry_key(scene)
     names, base_slots = slot_values(scene)
-    linear: dict[str, dict[int, float]] = {}  # key -> {slot: value of the slot per SI unit of the key}
+    linear: dict[str, dict[int, float]] = {}
     for key in (k for k in keys if k not in geometry_keys):
         coefficients = _linear_coefficients(reader, key, values[key], si[key], base_key, base_slots)
         if coefficients is not None:
@@ -379,16 +451,11 @@ def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str
     geometry = tuple(k for k in keys if k not in linear)
 
     columns = [keys.index(k) for k in geometry]
-    if columns:
-        # One integer per combination of the geometry keys' values: a 1-D unique is much faster than rows'.
-        flat = np.ravel_multi_index(tuple(index[:, c] for c in columns), tuple(len(values[k]) for k in geometry))
-        combos, group = np.unique(flat, return_inverse=True)
-        combos = np.array(np.unravel_index(combos, tuple(len(values[k]) for k in geometry))).T
-    else:
-        combos, group = np.zeros((1, 0), dtype=int), np.zeros(len(index), dtype=int)
+    combos = variants.combinations(columns)
     bases, slot_rows = [], []
     for combo in combos:
-        variant = reader.read({k: _toml_value(values[k][i]) for k, i in zip(geometry, combo)})
+        numbers = variants.values_of(combo, columns)
+        variant = reader.read({k: _toml_value(values[k][i]) for k, i in zip(geometry, numbers)})
         reason = _unsupported(variant)
         if reason:
             raise _fail(scene.source, ", ".join(geometry), None, reason)
@@ -398,18 +465,13 @@ def _plan(scene: Scene, values: dict[str, list], index: np.ndarray, backend: str
         # A geometry key that also moves a linear key's slot (a rod split and a rod mass): both are geometry.
         clash = {k for k, coefficients in linear.items() if any(slots_here[s] != base_slots[s] for s in coefficients)}
         if clash:
-            return _plan(scene, values, index, backend, progress, geometry_keys | clash)
+            return _plan(scene, values, variants, backend, progress, geometry_keys | clash)
         bases.append(linear_phasors(variant, backend=backend))
         if progress is not None:
             progress(len(bases), len(combos))
         slot_rows.append(bases[-1].values)
-    slots = np.array(slot_rows)[group]
-    for key, coefficients in linear.items():
-        x = si[key][index[:, keys.index(key)]]
-        for s, a in coefficients.items():
-            slots[:, s] = x if a == 1.0 else a * x
-    return _Plan(keys=keys, coords={k: si[k][index[:, i]] for i, k in enumerate(keys)}, units=units,
-                 linear=tuple(linear), geometry=geometry, bases=bases, group=group, slots=slots)
+    return _Plan(keys=keys, si=si, units=units, linear=linear, geometry=geometry, variants=variants, combos=combos,
+                 bases=bases, base_slots=np.array(slot_rows), sense=scene.sense)
 
 
 # -- evaluation and the Dataset -------------------------------------------------------------------
@@ -490,24 +552,77 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
     return out
 
 
+def _evaluate_block(plan: _Plan, start: int, stop: int, orders: np.ndarray, peak_samples: int | None, w2: float,
+                    phasors: bool) -> dict[str, np.ndarray]:
+    """Every array of the variants ``start`` … ``stop - 1``: key values, order
+    amplitudes, peaks if asked, and with ``phasors`` the phasors and their
+    co/counter split (a function of the plan and the block alone, so that
+    dask can run it on any worker)."""
+    group, slots, out = plan.block(start, stop)
+    arrays = evaluate_plan(plan.bases, group, slots, orders, peak_samples, w2)
+    for name in ("force", "moment"):
+        phasor = arrays.pop(name)
+        out[f"{name}_amplitude"] = order_amplitude(phasor)
+        if phasors:
+            out[name] = phasor
+            out[f"{name}_rotating"] = rotating(phasor, orders, plan.sense)
+    out.update(arrays)  # the peaks
+    return out
+
+
+def _evaluate(plan: _Plan, block: int, **options) -> dict[str, np.ndarray]:
+    """All variants, ``block`` at a time (bounding the phasors' temporaries)."""
+    count = plan.variants.count
+    arrays = {}
+    for start in range(0, count, block):
+        stop = min(start + block, count)
+        for name, part in _evaluate_block(plan, start, stop, **options).items():
+            if name not in arrays:
+                arrays[name] = np.empty((count,) + part.shape[1:], dtype=part.dtype)
+            arrays[name][start:stop] = part
+    return arrays
+
+
+def _chunked(plan: _Plan, chunk: int, **options) -> dict:
+    """All variants as dask arrays of ``chunk`` variants per chunk, one task per
+    chunk evaluating all of its arrays (nothing is evaluated here but the
+    first variant, for the arrays' shapes and types)."""
+    try:
+        import dask
+        import dask.array as da
+    except ImportError:
+        raise ImportError("chunked sweeps need dask: pip install \"harmbal[dask]\"") from None
+    count = plan.variants.count
+    template = _evaluate_block(plan, 0, 1, **options)
+    shared = dask.delayed(plan, traverse=False)  # one copy of the bases in the graph, not one per chunk
+    evaluate = dask.delayed(_evaluate_block, pure=True)
+    starts = range(0, count, chunk)
+    blocks = [(evaluate(shared, start, min(start + chunk, count), **options), min(start + chunk, count) - start)
+              for start in starts]
+    return {name: da.concatenate([da.from_delayed(task[name], (size,) + t.shape[1:], dtype=t.dtype)
+                                  for task, size in blocks]) for name, t in template.items()}
+
+
 def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: str, attrs: dict, speeds: Speeds):
     """The Dataset of ``arrays`` (at the scene's one speed, or at unit speed if
-    it has several: then lazy ω² products over ``speed``)."""
+    it has several: then ω² products over ``speed``, lazy)."""
     def var(dims, values, var_attrs):
-        return speeds.variable(dims, values, var_attrs) if speeds.several else variable(dims, values, var_attrs)
+        if not speeds.several:
+            return variable(dims, values, var_attrs)
+        if isinstance(values, np.ndarray):
+            return speeds.variable(dims, values, var_attrs)
+        return variable(speeds.lead + dims, speeds.w2.reshape((-1,) + (1,) * values.ndim) * values[None], var_attrs)
 
     data = {}
     for name, units in (("force", "N"), ("moment", "N m")):
-        values = arrays.get(name)
-        if values is not None:
-            data[name] = var((dim, "order", "axis"), values, {
+        if name in arrays:
+            data[name] = var((dim, "order", "axis"), arrays[name], {
                 "units": units, "long_name": f"order phasor of the free shaking {name}",
                 "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"})
-            data[f"{name}_rotating"] = var((dim, "order", "rotation"), rotating(values, orders, scene.sense), {
+            data[f"{name}_rotating"] = var((dim, "order", "rotation"), arrays[f"{name}_rotating"], {
                 "units": units, "long_name": f"co- and counter-rotating phasors of the transverse {name}",
                 "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta)"})
-        amplitude = arrays[f"{name}_amplitude"] if values is None else order_amplitude(values)
-        data[f"{name}_amplitude"] = var((dim, "order"), amplitude, {
+        data[f"{name}_amplitude"] = var((dim, "order"), arrays[f"{name}_amplitude"], {
             "units": units, "long_name": f"peak over a revolution of the order's {name} vector",
             "description": "sqrt((sum_a |C_a|^2 + |sum_a C_a^2|) / 2)"})
         if f"peak_{name}" in arrays:
@@ -515,12 +630,12 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
                 "units": units, "long_name": f"largest magnitude of the {name} vector over a revolution",
                 "description": f"maximum over {attrs['peak_samples']} angles of the orders 0..max_order "
                                "rebuilt from the phasors"})
-    coords = {dim: variable((dim,), np.arange(len(plan.group)), {"long_name": f"{dim} number"})}
+    coords = {dim: variable((dim,), np.arange(plan.variants.count), {"long_name": f"{dim} number"})}
     for key in plan.keys:
         key_attrs = {"long_name": f"scene key {key}", "kind": "linear" if key in plan.linear else "geometry"}
         if plan.units.get(key):
             key_attrs["units"] = plan.units[key]
-        coords[key] = variable((dim,), plan.coords[key], key_attrs)
+        coords[key] = variable((dim,), arrays[key], key_attrs)
     coords.update({
         "order": variable(("order",), orders, {"long_name": "order of crank speed", "units": "1"}),
         "axis": variable(("axis",), np.array(["x", "y", "z"]), {"long_name": "engine axis"}),
@@ -537,30 +652,31 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
     return dataset(data, coords, attrs)
 
 
-def _run(scene: Scene, values: dict, index: np.ndarray, orders, peaks: bool, peak_samples: int, backend: str,
-         progress: Callable[[int, int], None] | None, phasors: bool, dim: str, attrs: dict):
+def _run(scene: Scene, values: dict, variants: _Variants, orders, peaks: bool, peak_samples: int, backend: str,
+         progress: Callable[[int, int], None] | None, phasors: bool, chunks: int | None, dim: str, attrs: dict):
     kept = _orders(scene, orders)
-    plan = _plan(scene, values, index, backend, progress)
+    if chunks is not None and (isinstance(chunks, bool) or not isinstance(chunks, (int, np.integer)) or chunks < 1):
+        raise ValueError(f"chunks must be a positive number of variants: {chunks!r}")
+    plan = _plan(scene, values, variants, backend, progress)
     speeds = Speeds(scene.speeds)
-    w2 = 1.0 if speeds.several else float(speeds.w2)
-    samples = peak_samples if peaks else None
-    if phasors:
-        arrays = evaluate_plan(plan.bases, plan.group, plan.slots, kept, samples, w2=w2)
-    else:
-        # Only the amplitudes (and peaks) are kept: the phasors of one block of variants at a time.
-        count = len(plan.group)
-        arrays = {f"{name}_amplitude": np.empty((count, len(kept))) for name in ("force", "moment")}
-        for start in range(0, count, _BLOCK):
-            block = slice(start, start + _BLOCK)
-            part = evaluate_plan(plan.bases, plan.group[block], plan.slots[block], kept, samples, w2=w2)
-            for name in ("force", "moment"):
-                arrays[f"{name}_amplitude"][block] = order_amplitude(part[name])
-                if peaks:
-                    arrays.setdefault(f"peak_{name}", np.empty(count))[block] = part[f"peak_{name}"]
+    options = {"orders": kept, "peak_samples": peak_samples if peaks else None,
+               "w2": 1.0 if speeds.several else float(speeds.w2), "phasors": phasors}
+    arrays = _evaluate(plan, _BLOCK, **options) if chunks is None else _chunked(plan, int(chunks), **options)
     if peaks:
         attrs["peak_samples"] = peak_samples
     attrs["phasors"] = "yes" if phasors else "no (order amplitudes only)"
+    if chunks is not None:
+        attrs["chunks"] = int(chunks)
     return _dataset(scene, plan, arrays, kept, dim, attrs, speeds)
+
+
+def _given_values(values) -> np.ndarray | list:
+    """A key's values: a numeric array if they are all plain numbers (taken as
+    SI without a loop over them), else a list of numbers and unit strings."""
+    array = np.atleast_1d(np.asarray(values, dtype=object))
+    if array.size and all(isinstance(v, Real) and not isinstance(v, (bool, np.bool_)) for v in array):
+        return np.array(array.tolist())
+    return list(array)
 
 
 def _orders(scene: Scene, orders) -> np.ndarray:
@@ -579,7 +695,8 @@ def _as_scene(scene: Scene | str | os.PathLike) -> Scene:
 
 def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], *, mode: str = "grid",
           orders: Sequence[int] | None = None, peaks: bool = False, peak_samples: int = 360,
-          backend: str = "scipy", progress: Callable[[int, int], None] | None = None, phasors: bool = True):
+          backend: str = "scipy", progress: Callable[[int, int], None] | None = None, phasors: bool = True,
+          chunks: int | None = None):
     """Free forces and moments of many variants of a scene, vectorised.
 
     Parameters
@@ -615,6 +732,14 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
         False: keep only the order amplitudes (and peaks), evaluating the
         phasors in blocks of variants and dropping them: a sweep of 10⁷
         variants then needs about 1 GB instead of 40 (for 2 orders, 4).
+    chunks : int, optional
+        Variants per chunk: the result's arrays are then dask arrays, chunked
+        along ``variant``, evaluated only when computed or written (one task
+        per chunk; on the threaded scheduler by default, on a
+        ``distributed.Client`` if one is active), so a sweep larger than the
+        memory can be reduced or written chunk by chunk (docs/sweeps.md).
+        Needs the ``dask`` extra. The distinct geometries are still read and
+        evaluated here, before returning.
 
     Returns
     -------
@@ -641,28 +766,26 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
     scene = _as_scene(scene)
     if not parameters:
         raise ValueError("give at least one key to sweep")
-    values = {k: list(np.atleast_1d(np.asarray(v, dtype=object))) for k, v in parameters.items()}
+    values = {k: _given_values(v) for k, v in parameters.items()}
     for key, vals in values.items():
-        if not vals:
+        if len(vals) == 0:
             raise _fail(scene.source, key, [], "no values to sweep")
     lengths = [len(v) for v in values.values()]
-    if mode == "zip":
-        if len(set(lengths)) > 1:
-            raise ValueError(f"zip mode needs equally many values of every key: {dict(zip(values, lengths))}")
-        index = np.repeat(np.arange(lengths[0])[:, None], len(values), axis=1)
-    else:
-        index = np.indices(lengths).reshape(len(lengths), -1).T
+    if mode == "zip" and len(set(lengths)) > 1:
+        raise ValueError(f"zip mode needs equally many values of every key: {dict(zip(values, lengths))}")
     attrs = {"title": f"harmbal sweep: {scene.name}", "mode": mode, "parameters": list(values)}
     if mode == "grid":
         attrs["grid_shape"] = lengths
-    return _run(scene, values, index, orders, peaks, peak_samples, backend, progress, phasors, "variant", attrs)
+    return _run(scene, values, _Variants(tuple(lengths), mode), orders, peaks, peak_samples, backend, progress,
+                phasors, chunks, "variant", attrs)
 
 
 def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Normal | Uniform | WeightClasses],
                 n: int, *, seed: int | np.random.SeedSequence | None = None, orders: Sequence[int] | None = None,
                 peaks: bool = False, peak_samples: int = 360, percentiles: Sequence[float] = (5, 50, 95, 99),
                 force_limit: float | None = None, moment_limit: float | None = None, backend: str = "scipy",
-                progress: Callable[[int, int], None] | None = None, phasors: bool = True):
+                progress: Callable[[int, int], None] | None = None, phasors: bool = True,
+                chunks: int | None = None):
     """Production scatter: the free forces and moments of ``n`` random variants.
 
     Parameters
@@ -679,8 +802,8 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
     seed : int or SeedSequence, optional
         Seed of :func:`numpy.random.default_rng`: the same seed gives
         bit-identical results.
-    orders, peaks, peak_samples, backend, progress, phasors
-        As in :func:`sweep`.
+    orders, peaks, peak_samples, backend, progress, phasors, chunks
+        As in :func:`sweep` (with ``chunks``, the summary statistics are lazy too).
     percentiles : sequence of float
         Percentiles [%] of the order amplitudes (and peaks) to summarise.
     force_limit, moment_limit : float, optional
@@ -737,11 +860,11 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
             values[key] = dist.draw(rng, centre, int(n), key)
         except SceneError as exc:
             raise SceneError([replace(p, source=scene.source) for p in exc.problems]) from None
-    index = np.repeat(np.arange(int(n))[:, None], len(values), axis=1)
     attrs = {"title": f"harmbal Monte Carlo: {scene.name}", "mode": "monte carlo", "parameters": list(values),
              "samples": int(n), "seed": "none" if seed is None else str(seed),
              "tolerances": [f"{k}: {d!r}" for k, d in tolerances.items()]}
-    ds = _run(scene, values, index, orders, peaks, peak_samples, backend, progress, phasors, "sample", attrs)
+    ds = _run(scene, values, _Variants((int(n),) * len(values), "zip"), orders, peaks, peak_samples, backend,
+              progress, phasors, chunks, "sample", attrs)
     return _summarise(ds, percentiles, force_limit, moment_limit)
 
 
@@ -749,6 +872,8 @@ def _summarise(ds, percentiles, force_limit, moment_limit):
     """Percentiles, mean and standard deviation over ``sample`` of the order
     amplitudes (and peaks), the share of samples above the limits, and the
     sensitivity of each order amplitude to each toleranced key."""
+    import xarray as xr
+
     q = np.asarray(percentiles, dtype=float)
     out = ds.assign_coords(percentile=("percentile", q, {"units": "%"}))
     names = ["force_amplitude", "moment_amplitude"] + [v for v in ("peak_force", "peak_moment") if v in ds]
@@ -767,17 +892,23 @@ def _summarise(ds, percentiles, force_limit, moment_limit):
                 limit=float(limit))
     keys = list(ds.attrs["parameters"])
     out = out.assign_coords(parameter=("parameter", np.array(keys), {"long_name": "toleranced scene key"}))
-    inputs = np.stack([ds[k].values for k in keys], axis=-1)
+    x = xr.DataArray(xr.Variable.concat([ds[k].variable for k in keys], dim="parameter"))
+    x = x - x.mean("sample")
     for name in ("force", "moment"):
         amplitude = ds[f"{name}_amplitude"]
         # ω² scales every sample alike: the shares do not depend on the speed.
-        values = amplitude.isel(speed=0).values if "speed" in amplitude.dims else amplitude.values
-        share, r2 = sensitivity(inputs, values)
-        out[f"{name}_sensitivity"] = (("parameter", "order"), share, {
+        y = (amplitude.isel(speed=0) if "speed" in amplitude.dims else amplitude).variable
+        y = xr.DataArray(y) - y.mean("sample")
+        share, r2 = xr.apply_ufunc(
+            _shares, xr.dot(x, x.rename(parameter="parameter_"), dim="sample"), xr.dot(x, y, dim="sample"),
+            (y * y).sum("sample"), input_core_dims=[["parameter", "parameter_"], ["parameter", "order"], ["order"]],
+            output_core_dims=[["parameter", "order"], ["order"]], dask="parallelized", output_dtypes=[float, float],
+            dask_gufunc_kwargs={"allow_rechunk": True})  # the sums are small: one chunk each
+        out[f"{name}_sensitivity"] = (("parameter", "order"), share.data, {
             "units": "1", "long_name": f"share of the variance of the order {name} amplitude due to each tolerance",
             "description": "squared standardised regression coefficient of a linear least-squares fit on the "
                            "samples; for independent tolerances the shares sum to about the fit's R^2"})
-        out[f"{name}_sensitivity_r2"] = (("order",), r2, {
+        out[f"{name}_sensitivity_r2"] = (("order",), r2.data, {
             "units": "1", "long_name": f"R^2 of the linear fit of the order {name} amplitude on the tolerances"})
     return out
 
@@ -803,13 +934,19 @@ def sensitivity(inputs: np.ndarray, outputs: np.ndarray) -> tuple[np.ndarray, np
     """
     x = inputs - inputs.mean(axis=0)
     y = outputs - outputs.mean(axis=0)
-    sx, sy = x.std(axis=0), y.std(axis=0)
-    varying = sx > 0
-    slopes = np.zeros((x.shape[1], y.shape[1]))
+    return _shares(x.T @ x, x.T @ y, (y * y).sum(axis=0))
+
+
+def _shares(sxx: np.ndarray, sxy: np.ndarray, syy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sensitivity` from the centred sums of products (sums over the
+    samples, so that a chunked Monte Carlo run reduces its chunks to them):
+    slopes b = Sxx⁻¹·Sxy (normal equations: the inputs are few and, centred,
+    well conditioned), share b_k²·Sxx_kk/Syy, R² = b·Sxy/Syy."""
+    varying = np.diag(sxx) > 0
+    slopes = np.zeros(sxy.shape)
     if varying.any():
-        slopes[varying] = np.linalg.lstsq(x[:, varying], y, rcond=None)[0]
+        slopes[varying] = np.linalg.solve(sxx[np.ix_(varying, varying)], sxy[varying])
     with np.errstate(divide="ignore", invalid="ignore"):
-        share = np.where(sy > 0, (slopes * sx[:, None] / sy) ** 2, 0.0)
-        residual = y - x @ slopes
-        r2 = np.where(sy > 0, 1 - (residual**2).sum(axis=0) / (y**2).sum(axis=0), 0.0)
+        share = np.where(syy > 0, slopes**2 * np.diag(sxx)[:, None] / syy, 0.0)
+        r2 = np.where(syy > 0, (slopes * sxy).sum(axis=0) / syy, 0.0)
     return share, r2

@@ -482,9 +482,11 @@ def order_amplitude(phasor: np.ndarray) -> np.ndarray:
     complex per axis (axis last): √((Σ|C_a|² + |Σ C_a²|)/2), the semi-major
     axis of the ellipse it traces (|P_co| + |P_counter| for a transverse
     vector)."""
-    re, im = phasor.real, phasor.imag
-    square = (re * re - im * im).sum(axis=-1) + 2j * (re * im).sum(axis=-1)
-    return np.sqrt(((re * re + im * im).sum(axis=-1) + np.abs(square)) / 2)
+    # Written out over the three axes: a sum over a length-3 last axis is numpy's slowest reduction.
+    x, y, z = phasor[..., 0], phasor[..., 1], phasor[..., 2]
+    square = x * x + y * y + z * z
+    power = (x * x.conj() + y * y.conj() + z * z.conj()).real
+    return np.sqrt((power + np.abs(square)) / 2)
 
 
 def rotating(phasor: np.ndarray, orders: np.ndarray, sense: int) -> np.ndarray:
@@ -534,10 +536,14 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
     out = {"force": force, "moment": moment}
     if peak_samples:
         out["peak_force"], out["peak_moment"] = np.empty(count), np.empty(count)
-    by_group = np.argsort(group, kind="stable")
-    bounds = np.searchsorted(group[by_group], np.arange(len(bases) + 1))
-    for g, basis in enumerate(bases):
-        rows = by_group[bounds[g]: bounds[g + 1]] if len(bases) > 1 else slice(None)
+    # The variants of each geometry that occurs in the block: slices if the block is sorted by geometry (a
+    # grid's blocks are, its geometry keys varying slowest), fancy indices otherwise.
+    ordered = bool(np.all(group[1:] >= group[:-1]))
+    by_group = None if ordered else np.argsort(group, kind="stable")
+    present, starts = np.unique(group if ordered else group[by_group], return_index=True)
+    for g, start, stop in zip(present, starts, np.append(starts[1:], count)):
+        rows = slice(start, stop) if ordered else by_group[start:stop]
+        basis = bases[g]
         if w2 != 1.0:
             basis = replace(basis, force=w2 * basis.force, moment=w2 * basis.moment,
                             constant_force=w2 * basis.constant_force, constant_moment=w2 * basis.constant_moment)
@@ -546,8 +552,8 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
         if peak_samples:
             waves = time_basis(basis, peak_samples)
             where = np.arange(count)[rows]
-            for start in range(0, len(where), _PEAK_BLOCK):
-                block = where[start: start + _PEAK_BLOCK]
+            for first in range(0, len(where), _PEAK_BLOCK):
+                block = where[first: first + _PEAK_BLOCK]
                 out["peak_force"][block], out["peak_moment"][block] = peaks(*waves, slots[block])
     return out
 

@@ -8,8 +8,9 @@ from ._version import __version__
 from .labelled import CONVENTIONS, Speeds, dataset, tree
 from .model.evaluate import evaluate
 from .model.gas import gas_loads
-from .model.sampling import simulates_gas
+from .model.sampling import choose_samples, inertia_samples, simulates_gas
 from .orders.phasors import order_phasors
+from .orders.spectrum import phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
 from .views.stars import stars_dataset
@@ -81,14 +82,18 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     """
     if "speed_fluctuation" in scene.model.effects:
         return _fluctuating(scene, per_cylinder, backend)
-    unit = evaluate(scene)
-    gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
+    # With gas the inertia keeps a grid of its own, coarser than the gas's: only the time-domain views
+    # need it on the gas grid, where it is interpolated (inertia_samples says why that is exact enough).
+    samples = choose_samples(scene)
+    unit = evaluate(scene, inertia_samples(scene), peak_samples=samples)
+    gas = gas_loads(scene, samples) if simulates_gas(scene) else None
     moments = body_moments(unit)
     aliasing = body_aliasing(unit, backend, moments)
-    gas_tail = None if gas is None else gas_aliasing(gas, scene.sampling.max_order, backend)
+    gas_spectrum = None if gas is None else phasors(gas.torque, backend)  # one FFT for the tail, /orders, /torque
+    gas_tail = None if gas is None else gas_aliasing(gas, scene.sampling.max_order, backend, gas_spectrum)
     time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing, gas=gas,
                         gas_tail=gas_tail, backend=backend)
-    values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas, gas_tail)
+    values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas, gas_tail, gas_spectrum)
     speeds = Speeds(scene.speeds)
     orders = orders_dataset(values, attrs, speeds, speeds.coords(), constants=gas_values)
     whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders
@@ -96,7 +101,7 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
               "stars": stars_dataset(scene, order_phasors(scene, unit=unit, backend=backend),
                                      totals=(values["force"][whole].T, values["moment"][whole].T))}
     if gas is not None:
-        groups["torque"] = torque_dataset(scene, unit, gas, backend=backend)
+        groups["torque"] = torque_dataset(scene, unit, gas, backend=backend, spectrum=gas_spectrum)
     return _tree(scene, groups, backend)
 
 

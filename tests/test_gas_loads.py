@@ -5,6 +5,7 @@ orders, firing stars and the IMEP identity, against formulas written here
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,9 @@ import harmbal as hb
 import harmbal.analysis
 import harmbal.views.time
 from harmbal.model import gas as gas_module
+from harmbal.model.evaluate import evaluate
 from harmbal.model.pressure import cylinder_pressure
+from harmbal.model.sampling import AccuracyWarning, interpolate
 
 ROOT = Path(__file__).resolve().parent.parent
 DEG = math.pi / 180
@@ -30,7 +33,7 @@ def _trace(step_deg: float = 1.0) -> dict:
 
 
 def _scene(cylinders, *, effects=None, speed="3000 rpm", rotation="clockwise", offset="1 mm", firing_order=None,
-           gas=True):
+           gas=True, rod_length="150 mm", tables=None):
     engine = {"name": "gas-test", "cycle": 4, "rotation": rotation, "speed": speed,
               "reference_point": ["0 mm", "0 mm", "0 mm"]}
     if firing_order is not None:
@@ -38,7 +41,7 @@ def _scene(cylinders, *, effects=None, speed="3000 rpm", rotation="clockwise", o
     mapping = {
         "engine": engine,
         "sampling": {"max_order": 8},
-        "geometry": {"crank_radius": "45 mm", "rod_length": "150 mm", "pin_offset": offset},
+        "geometry": {"crank_radius": "45 mm", "rod_length": rod_length, "pin_offset": offset},
         "piston": {"mass": "0.5 kg"},
         "rod": {"mass": "0.6 kg", "cg_from_big_end": "40 mm", "inertia": "0.002 kg m^2"},
         "cylinder": cylinders,
@@ -47,7 +50,7 @@ def _scene(cylinders, *, effects=None, speed="3000 rpm", rotation="clockwise", o
         mapping["model"] = {"effects": effects}
     if gas:
         mapping["gas"] = {"bore": "86 mm", "crankcase_pressure": "1 bar", "trace": _trace()}
-    return hb.load_scene(mapping)
+    return hb.load_scene({**mapping, **(tables or {})})
 
 
 SINGLE = [{"label": "1"}]
@@ -102,6 +105,57 @@ def test_roll_reaction_is_minus_the_gas_torque():
     for axis in ("y", "z"):
         np.testing.assert_allclose(a.moment.sel(axis=axis).values, np.tile(b.moment.sel(axis=axis).values, 2),
                                    rtol=0, atol=1e-12 * float(a.moment_scale))
+
+
+@pytest.mark.parametrize("samples", [47, 48])
+def test_trigonometric_interpolation_is_exact_for_a_band_limited_signal(samples):
+    """interpolate() onto a finer grid gives the closed form of a signal whose orders lie below
+    N/2 (and, for an even N, a cosine at N/2, all its samples show of that order)."""
+    def signal(n):
+        theta = 2 * np.pi * np.arange(n) / n
+        value = 0.7 + sum(np.cos(k * theta + 0.3 * k) / k for k in range(1, (samples + 1) // 2))
+        return value + (0.25 * np.cos(samples // 2 * theta) if samples % 2 == 0 else 0.0)
+
+    coarse = np.stack([signal(samples), -2 * signal(samples)])
+    for fine in (samples, 720, 725):
+        want = np.stack([signal(fine), -2 * signal(fine)])
+        np.testing.assert_allclose(interpolate(coarse, fine), want, rtol=0, atol=1e-13)
+    with pytest.raises(ValueError, match="not a finer grid"):
+        interpolate(coarse, samples - 1)
+
+
+@pytest.mark.parametrize("rod_length, shaft", [
+    ("150 mm", None),  # λ = 0.3: the interpolant needs more samples (40) than the orders kept do (32)
+    ("60 mm", None),  # λ = 0.75: slowly decaying harmonics (96 samples)
+    ("150 mm", 47),  # a balance shaft at 47×: one harmonic, kept below N/4 (192 samples)
+])
+def test_inertia_interpolated_onto_the_gas_grid_equals_its_direct_evaluation(rod_length, shaft):
+    """With gas the inertia is evaluated on a coarser grid of its own and interpolated onto the gas
+    grid: its time-domain loads (totals, per cylinder, mass torque) equal the exact model evaluated
+    directly on the gas grid to the accuracy asked for (1e-12 of the load scale), its load scales
+    are those of the gas grid, and the orders warn of no aliasing."""
+    tables = None if shaft is None else {
+        "balance_shaft": [{"ratio": shaft, "unbalance": [{"unbalance": "1e-4 kg m", "angle": "0 deg"}]}]}
+    scene = _scene(INLINE_4, firing_order=[1, 3, 4, 2], rod_length=rod_length, tables=tables)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        tree = hb.analyse(scene, per_cylinder=True)
+    time, torque = tree["time"].ds, tree["torque"].ds
+    n = time.attrs["samples_per_rev"]
+    assert time.attrs["inertia_samples_per_rev"] < n
+    without = scene.with_effects(scene.model.effects - {"gas"})
+    direct = hb.simulate(without, samples_per_rev=n, per_cylinder=True)
+    force_scale, moment_scale = float(direct.force_scale), float(direct.moment_scale)
+    assert float(time.force_scale) == pytest.approx(force_scale, rel=1e-14)
+    gas_roll = np.zeros_like(time.moment_cylinder.values)
+    gas_roll[:, 0] = scene.sense * torque.gas_torque.values  # the gas moment on the block: −sense·(−T)
+    for name, scale, gas in (("force", force_scale, 0.0), ("moment", moment_scale, gas_roll.sum(axis=0)),
+                             ("force_cylinder", force_scale, 0.0), ("moment_cylinder", moment_scale, gas_roll)):
+        np.testing.assert_allclose(time[name].values + gas, np.tile(direct[name].values, 2), rtol=0,
+                                   atol=1e-12 * scale, err_msg=name)
+    drive = evaluate(without, n).drive_torque.sum(axis=0) * scene.speeds[0] ** 2
+    np.testing.assert_allclose(torque.mass_torque.values, np.tile(drive, 2), rtol=0,
+                               atol=1e-12 * float(np.abs(drive).max()))
 
 
 @pytest.mark.parametrize("name", ["v8-cross-plane-gas", "tractor-3cyl-gas"])

@@ -23,7 +23,7 @@ from . import loads
 from .balancers import shaft_loads
 from .kinematics import SliderCrank, crank_pin, slider_crank
 from .linkage import lever_loads
-from .sampling import body_decay_rates, choose_samples
+from .sampling import body_decay_rates, choose_samples, interpolate
 from ..scene import Model, Scene
 
 #: A cylinder's phase within this many rounding units (relative, of its phase in grid steps) of a grid
@@ -240,7 +240,8 @@ PLACEMENT_FIELDS = ("label", "throw", "bank", "x", "throw_unbalances")
 TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston", "rod", "gas")
 
 
-def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bool = False) -> UnitLoads:
+def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bool = False,
+             peak_samples: int | None = None) -> UnitLoads:
     """Evaluate the exact model once at ω = 1 rad/s, only the scene's effects.
 
     With ``tangential``, the loads per unit crank acceleration α = 1 rad/s²
@@ -254,6 +255,11 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
     samples_per_rev : int, optional
         Samples per revolution; default the scene's sampling
         (:func:`harmbal.model.sampling.choose_samples`).
+    peak_samples : int, optional
+        Samples per revolution (at least the evaluation's) over which the
+        peak loads are taken, by trigonometric interpolation of the loads; default the
+        evaluation's own: with gas, the gas grid's, so that the load scales
+        are those of the time domain the inertia is interpolated onto.
 
     Returns
     -------
@@ -297,8 +303,8 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         moment[:, 0] = sense * local[:, 2]
         moment[:, 1] = -x[:, None] * force[:, 2]
         moment[:, 2] = x[:, None] * force[:, 1]
-        peak_force += np.hypot(type_planar[:, 0], type_planar[:, 1]).max(axis=-1)[kind]
-        peak_roll += np.abs(type_planar[:, 2]).max(axis=-1)[kind]
+        peak_force += _peak(type_planar[:, :2], peak_samples)[kind]
+        peak_roll += _peak(type_planar[:, 2:], peak_samples)[kind]
 
     crank_force = np.zeros((3, n))
     crank_moment = np.zeros((3, n))
@@ -339,8 +345,8 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
             raise ValueError("lever balancers have no loads per unit crank acceleration yet")
         lever_force, lever_moment = lever_loads(scene.levers, theta, sense, "mass_torque" in effects)
         element_force, element_moment = element_force + lever_force, element_moment + lever_moment
-        lever_peak_force = float(np.linalg.norm(lever_force, axis=0).max())
-        lever_peak_moment = float(np.linalg.norm(moment_about(ref, lever_force, lever_moment), axis=0).max())
+        lever_peak_force = float(_peak(lever_force, peak_samples))
+        lever_peak_moment = float(_peak(moment_about(ref, lever_force, lever_moment), peak_samples))
 
     # |M_i| ≤ |roll| + |r − ref|·|F| with r the farthest point of cylinder i's loads.
     arm = np.array([max([abs(c.x - ref[0])] + [abs(u.x - ref[0]) for u in c.throw_unbalances]) for c in cyls])
@@ -360,6 +366,15 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
         kinetic_energy=kinetic_energy,
     )
+
+
+def _peak(vectors: np.ndarray, samples: int | None) -> np.ndarray:
+    """Largest magnitude over the angle (last axis) of vectors whose
+    components lie along the second-to-last axis, sampled on their grid or,
+    interpolated, on ``samples`` per revolution."""
+    if samples is not None:
+        vectors = interpolate(vectors, samples)
+    return np.sqrt((vectors * vectors).sum(axis=-2)).max(axis=-1)
 
 
 def moment_about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np.ndarray:

@@ -22,19 +22,19 @@ from .speed import SpeedFluctuation, flywheel_for, periodic_speed
 from ..scene import Scene
 
 
-def crank_inertia(unit: UnitLoads, revolutions: int) -> tuple[np.ndarray, np.ndarray]:
+def crank_inertia(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarray]:
     """J_var(θ) = 2·KE₁(θ) of the moving parts and its derivative 2·d(KE₁)/dθ
-    over the cycle (``unit`` at rest of its mass torque or not: neither
-    depends on it)."""
-    return (2 * np.tile(unit.kinetic_energy.sum(axis=0), revolutions),
-            2 * np.tile(unit.drive_torque.sum(axis=0), revolutions))
+    over the cycle, on the gas loads' grid (``unit`` at rest of its mass
+    torque or not: neither depends on it)."""
+    energy, torque = gas.on_cycle(np.stack([unit.kinetic_energy.sum(axis=0), unit.drive_torque.sum(axis=0)]))
+    return 2 * energy, 2 * torque
 
 
 def crank_speeds(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[SpeedFluctuation]:
     """The periodic speed over the cycle at each of the scene's speeds (each
     the mean speed, in the sense of ``[flywheel] mean``)."""
     flywheel = scene.flywheel
-    variable, derivative = crank_inertia(unit, gas.revolutions)
+    variable, derivative = crank_inertia(unit, gas)
     torque = gas.torque.sum(axis=0)
     return [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, load_torque=flywheel.load_torque,
                            inertia_derivative=derivative, mean=flywheel.mean)
@@ -44,7 +44,7 @@ def crank_speeds(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[SpeedFluc
 def flywheels_needed(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[float]:
     """The constant inertia J₀ that gives ``[flywheel] target_coefficient`` at each speed."""
     flywheel = scene.flywheel
-    variable, derivative = crank_inertia(unit, gas.revolutions)
+    variable, derivative = crank_inertia(unit, gas)
     torque = gas.torque.sum(axis=0)
     return [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w,
                          load_torque=flywheel.load_torque, inertia_derivative=derivative, mean=flywheel.mean)

@@ -23,6 +23,7 @@ import numpy as np
 from .evaluate import ON_GRID
 from .kinematics import slider_crank
 from .pressure import check_gas, cylinder_pressure, stroke, top_dead_centre_travel
+from .sampling import interpolate
 from ..scene import Scene
 from ..scene.firing import cylinder_firing
 
@@ -57,12 +58,23 @@ class GasLoads:
         direction of rotation, per cylinder (cylinder, M) [N m]."""
         return -self.torque
 
-    def moment(self) -> np.ndarray:
+    def moment(self, torque: np.ndarray | None = None) -> np.ndarray:
         """The gas moment on the block in engine axes (axis, M) [N m]
-        (about any point: it is a pure couple)."""
-        moment = np.zeros((3, self.theta.size))
-        moment[0] = self.sense * self.roll.sum(axis=0)
+        (about any point: it is a pure couple); of ``torque`` (cylinder, …)
+        instead of ``self.torque`` if given: the moment is linear in the
+        torques, so their order phasors give its phasors."""
+        torque = self.torque if torque is None else torque
+        moment = np.zeros((3, torque.shape[-1]), dtype=torque.dtype)
+        moment[0] = -self.sense * torque.sum(axis=0)
         return moment
+
+    def on_cycle(self, values: np.ndarray) -> np.ndarray:
+        """Samples of one revolution (last axis; as many as the cycle's grid
+        has per revolution, or fewer: the inertia's own grid, see
+        :func:`harmbal.model.sampling.inertia_samples`) on the cycle's grid:
+        interpolated trigonometrically (:func:`harmbal.model.sampling.interpolate`)
+        and repeated each revolution."""
+        return np.tile(interpolate(values, self.theta.size // self.revolutions), self.revolutions)
 
     @property
     def moment_scale(self) -> float:

@@ -55,12 +55,9 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
         # A shaft at n× is one harmonic: it must not alias onto the orders kept (N − |n| > K).
         n = max([n] + [abs(shaft.ratio) + k + 1 for shaft in scene.shafts])
     if rho > 0:
-        m = k + 1
-        target = sampling.accuracy / ALIAS_SAFETY  # so that the estimate reported meets the target too
-        while m * m * rho**m > target and m < MAX_SAMPLES:
-            m += 1
+        m = _tail_order(rho, sampling.accuracy, k)
         n = max(n, m + k)
-        if m * m * rho**m > target:
+        if m * m * rho**m > sampling.accuracy / ALIAS_SAFETY:
             import warnings
 
             warnings.warn(f"{scene.source}: sampling.accuracy = {sampling.accuracy:g} needs more than {MAX_SAMPLES} "
@@ -71,6 +68,74 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
     if simulates_gas(scene):
         n = max(n, GAS_SAMPLES_PER_REV)
     return 8 * math.ceil(n / 8)
+
+
+def inertia_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
+    """Samples per revolution of the inertia loads, which with gas are
+    evaluated on a grid of their own and brought to the gas grid by
+    trigonometric interpolation (:func:`interpolate`).
+
+    The interpolant of N samples holds the orders below N/2 (and the cosine
+    of order N/2): between the samples it misses the orders ≥ N/2 and their
+    aliases, so the bound |C_n| ≲ n²ρⁿ of :func:`choose_samples` must meet the
+    accuracy target at n = N/2 rather than at N − K, and a shaft's single
+    harmonic must lie below N/4 (below N/2 for the interpolant, and out of
+    the tail that :func:`harmbal.orders.spectrum.aliasing_estimate` fits).
+    The count is also what the inertia needs without gas, and never more
+    than the gas grid's (:func:`choose_samples`), on which the inertia is
+    then evaluated directly. Without gas, or with a fixed
+    ``samples_per_rev``, it is :func:`choose_samples`' count.
+    """
+    n = choose_samples(scene, decay_rates)
+    if not simulates_gas(scene) or scene.sampling.samples_per_rev is not None:
+        return n
+    rates = body_decay_rates(scene) if decay_rates is None else decay_rates
+    own = choose_samples(scene.with_effects(scene.model.effects - {"gas"}), rates)
+    rho = float(rates.max())
+    needed = [2 * _tail_order(rho, scene.sampling.accuracy, scene.sampling.max_order)] if rho > 0 else []
+    if "balancers" in scene.model.effects:
+        # Not only below N/2: in the tail band (N/4, N/2] the aliasing estimate would take a shaft's single
+        # harmonic for a tail that does not decay.
+        needed += [4 * abs(shaft.ratio) for shaft in scene.shafts]
+    return min(n, max(own, 8 * math.ceil(max(needed, default=0) / 8)))
+
+
+def interpolate(values: np.ndarray, samples: int) -> np.ndarray:
+    """Trigonometric interpolation of N samples over one period (last axis)
+    onto ``samples`` ≥ N equally spaced points of the same period, from the
+    same first angle (the samples themselves if ``samples`` = N).
+
+    The interpolant is the band-limited signal through the samples: their
+    orders below N/2 and, for an even N, the order N/2 as the cosine the
+    samples show. It is exact (to round-off) for a signal without orders
+    ≥ N/2; otherwise it misses, between the samples, those orders and their
+    aliases on the orders below N/2 (:func:`inertia_samples` chooses N so
+    that they are below the accuracy target). numpy's FFT: a change of grid
+    within the model, not an order analysis, whose FFT backend the caller
+    chooses.
+    """
+    n = values.shape[-1]
+    if samples < n:
+        raise ValueError(f"interpolate onto {samples} points from {n} samples: not a finer grid")
+    if samples == n:
+        return values
+    spectrum = np.fft.rfft(values, axis=-1) * (samples / n)
+    if n % 2 == 0:
+        spectrum[..., -1] /= 2  # the order N/2 is one cosine on N samples, two mirror images on the finer grid
+    padded = np.zeros(values.shape[:-1] + (samples // 2 + 1,), dtype=complex)
+    padded[..., : n // 2 + 1] = spectrum
+    return np.fft.irfft(padded, samples, axis=-1)
+
+
+def _tail_order(rho: float, accuracy: float, max_order: int) -> int:
+    """The lowest order m > ``max_order`` from which the harmonics' bound
+    m²ρᵐ (relative to the first order) stays below ``accuracy`` /
+    ALIAS_SAFETY, so that the estimate reported meets the target too (at
+    most MAX_SAMPLES)."""
+    m = max_order + 1
+    while m * m * rho**m > accuracy / ALIAS_SAFETY and m < MAX_SAMPLES:
+        m += 1
+    return m
 
 
 def body_decay_rates(scene: Scene) -> np.ndarray:

@@ -153,30 +153,31 @@ def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dic
 
 
 def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "scipy",
-                gas: GasLoads | None = None, gas_tail=None) -> tuple[dict, dict, dict | None]:
+                gas: GasLoads | None = None, gas_tail=None, gas_spectrum=None) -> tuple[dict, dict, dict | None]:
     """:func:`order_arrays` of one evaluation at unit speed (``aliasing`` from
     :func:`harmbal.views.time.body_aliasing`), and, with ``gas``, those of the
     speed-independent gas loads over the cycle (else None; ``gas_tail``:
-    :func:`harmbal.views.time.gas_aliasing` if already computed); the values
-    at speed ω are the first times ω² plus the second."""
+    :func:`harmbal.views.time.gas_aliasing`, ``gas_spectrum``: the phasors
+    of ``gas.torque``, if already computed); the values at speed ω are the
+    first times ω² plus the second."""
     force, moment = unit.total()
     spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order)
     kmax = scene.sampling.max_order
-    attrs = attributes(scene, unit.samples_per_rev)
+    attrs = attributes(scene, unit.samples_per_rev, gas)
     tails, scales = {"force": aliasing[0], "moment": aliasing[1]}, {"force": unit.force_scale, "moment": unit.moment_scale}
     if gas is None:
         return (*order_arrays(spectrum[0], spectrum[1], tails, scales, attrs, max_order=kmax, backend=backend), None)
     revs = gas.revolutions
-    attrs["revolutions"] = revs
     # The inertia loads repeat every revolution: over the cycle they have whole orders only, exactly.
     spread = np.zeros(spectrum.shape[:-1] + (revs * kmax + 1,), dtype=complex)
     spread[..., ::revs] = spectrum[..., : kmax + 1]
     values, attrs = order_arrays(spread[0], spread[1], tails, scales, attrs, max_order=kmax, backend=backend,
                                  revolutions=revs)
-    gas_moment = phasors(gas.moment(), backend)
+    gas_spectrum = phasors(gas.torque, backend) if gas_spectrum is None else gas_spectrum
+    gas_moment = gas.moment(gas_spectrum)
     gas_values, gas_attrs = order_arrays(np.zeros_like(gas_moment), gas_moment,
-                                         {"force": np.zeros(3), "moment": gas_aliasing(gas, kmax, backend) if gas_tail is None
-                                                                   else gas_tail},
+                                         {"force": np.zeros(3), "moment": gas_aliasing(gas, kmax, backend, gas_spectrum)
+                                          if gas_tail is None else gas_tail},
                                          {"force": 0.0, "moment": gas.moment_scale}, attrs, max_order=kmax,
                                          backend=backend, revolutions=revs)
     attrs["gas_accuracy_reached"] = gas_attrs["accuracy_reached"]

@@ -8,7 +8,7 @@ from .._version import __version__
 from ..labelled import AXES, CONVENTIONS, Speeds, dataset
 from ..model.evaluate import UnitLoads, evaluate, moment_about
 from ..model.gas import GasLoads, gas_loads
-from ..model.sampling import simulates_gas
+from ..model.sampling import choose_samples, inertia_samples, simulates_gas
 from ..orders.spectrum import aliasing_estimate, phasors
 from ..scene import EFFECTS, Scene
 
@@ -45,14 +45,19 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         With gas (effect ``gas``), ``angle`` spans the working cycle: two
         revolutions for a four-stroke engine (attribute ``revolutions``), and
         ``moment`` adds the reaction of the gas torque about the crank axis,
-        which does not scale with ω² (see :mod:`harmbal.model.gas`).
+        which does not scale with ω² (see :mod:`harmbal.model.gas`). Unless
+        ``samples_per_rev`` is given, the inertia loads are evaluated on the
+        grid they need (attribute ``inertia_samples_per_rev``,
+        :func:`harmbal.model.sampling.inertia_samples`) and interpolated
+        onto the gas grid's.
     """
     if "speed_fluctuation" in scene.model.effects:
         if per_cylinder:
             raise ValueError("per_cylinder is not available at a fluctuating speed (effect speed_fluctuation)")
         return fluctuating_time_dataset(scene, samples_per_rev=samples_per_rev)
-    unit = evaluate(scene, samples_per_rev)
-    gas = gas_loads(scene, unit.samples_per_rev) if simulates_gas(scene) else None
+    samples = samples_per_rev or choose_samples(scene)
+    unit = evaluate(scene, samples_per_rev or inertia_samples(scene), peak_samples=samples)
+    gas = gas_loads(scene, samples) if simulates_gas(scene) else None
     return time_dataset(scene, unit, per_cylinder=per_cylinder, gas=gas)
 
 
@@ -89,11 +94,13 @@ def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None
     return tail[:3], tail[3:]
 
 
-def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy") -> np.ndarray:
+def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy", spectrum=None) -> np.ndarray:
     """Aliasing estimate of the gas moment's phasors per axis (only x is
-    nonzero), summed over the cylinders without cancellation."""
+    nonzero), summed over the cylinders without cancellation; ``spectrum``:
+    the phasors of ``gas.torque`` if already computed."""
     n = gas.theta.size
-    tail = aliasing_estimate(np.abs(phasors(gas.torque, backend)), n, gas.revolutions * max_order).sum(axis=0)
+    spectrum = phasors(gas.torque, backend) if spectrum is None else spectrum
+    tail = aliasing_estimate(np.abs(spectrum), n, gas.revolutions * max_order).sum(axis=0)
     return np.array([tail, 0.0, 0.0])
 
 
@@ -102,18 +109,20 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
     """The time-domain Dataset of one evaluation (see :func:`simulate`);
     ``moments`` = :func:`body_moments`, ``aliasing`` = :func:`body_aliasing`
     and ``gas_tail`` = :func:`gas_aliasing` if already computed; ``gas`` the
-    gas loads if simulated (on the cycle's grid, which repeats ``unit``'s
-    revolution)."""
+    gas loads if simulated (on the cycle's grid, onto which ``unit``'s
+    revolution is interpolated and repeated: :meth:`GasLoads.on_cycle`)."""
     moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
     crank_force, _ = unit.crankshaft()
     force = unit.force_cylinder.sum(axis=0) + crank_force
     moment = moment_cyl.sum(axis=0) + moment_crank
     alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moments=(moment_cyl, moment_crank))
     # Speed-independent parts (gas) of the moment, its scale and aliasing estimate; the inertia repeats each turn.
-    theta, revs, extra = unit.theta, 1, {}
+    theta, force_cyl, extra = unit.theta, unit.force_cylinder, {}
     if gas is not None:
-        theta, revs = gas.theta, gas.revolutions
-        force, moment, moment_cyl = (np.tile(a, revs) for a in (force, moment, moment_cyl))
+        theta = gas.theta
+        force, moment = gas.on_cycle(np.stack([force, moment]))
+        if per_cylinder:
+            force_cyl, moment_cyl = gas.on_cycle(np.stack([force_cyl, moment_cyl]))
         extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,
                  "aliasing_error_moment": gas_aliasing(gas, scene.sampling.max_order, backend) if gas_tail is None
                  else gas_tail}
@@ -144,16 +153,13 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
     if per_cylinder:
         coords["cylinder"] = ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"})
         dims = ("cylinder", "axis", "angle")
-        data["force_cylinder"] = var(dims, np.tile(unit.force_cylinder, revs),
-                                     {"units": "N", "long_name": "force of one cylinder"})
+        data["force_cylinder"] = var(dims, force_cyl, {"units": "N", "long_name": "force of one cylinder"})
         if gas is not None:
             extra["moment_cylinder"] = np.zeros_like(moment_cyl)
             extra["moment_cylinder"][:, 0] = gas.sense * gas.roll
         data["moment_cylinder"] = var(dims, moment_cyl, {"units": "N m", "long_name": "moment of one cylinder"},
                                       "moment_cylinder")
-    attrs = attributes(scene, unit.samples_per_rev)
-    if gas is not None:
-        attrs["revolutions"] = revs
+    attrs = attributes(scene, unit.samples_per_rev, gas)
     return dataset(data, coords, attrs)
 
 
@@ -217,9 +223,12 @@ def fluctuating_time_dataset(scene: Scene, *, samples_per_rev: int | None = None
     return dataset(data, coords, attrs)
 
 
-def attributes(scene: Scene, samples: int) -> dict:
+def attributes(scene: Scene, samples: int, gas: GasLoads | None = None) -> dict:
+    """The attributes every view's Dataset shares, ``samples`` per revolution
+    of the unit evaluation; with ``gas``, the cycle's grid and revolutions,
+    the inertia's own grid as ``inertia_samples_per_rev``."""
     model = scene.model
-    return {
+    attrs = {
         "title": f"harmbal time-domain shaking loads: {scene.name}",
         "engine": scene.name,
         "harmbal_version": __version__,
@@ -236,3 +245,7 @@ def attributes(scene: Scene, samples: int) -> dict:
         # The relative accuracy asked for; 0 when the scene fixes samples_per_rev instead.
         "accuracy_target": float(scene.sampling.accuracy) if scene.sampling.samples_per_rev is None else 0.0,
     }
+    if gas is not None:
+        attrs.update({"samples_per_rev": gas.theta.size // gas.revolutions, "inertia_samples_per_rev": samples,
+                      "revolutions": gas.revolutions})
+    return attrs

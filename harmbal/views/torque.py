@@ -26,7 +26,7 @@ def firing_stars(firing_angle: np.ndarray, order: np.ndarray) -> tuple[np.ndarra
     return arms, np.abs(np.exp(-1j * arms).sum(axis=-1))
 
 
-def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str = "scipy"):
+def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str = "scipy", spectrum=None):
     """Pressure, gas torque, mass torque and their orders over the cycle.
 
     Parameters
@@ -34,9 +34,12 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     scene : Scene
         Names, speeds and the cylinders' crank radii.
     unit : UnitLoads
-        The inertia evaluation on the cycle's grid (its revolution repeats).
+        The inertia evaluation, on the cycle's grid or a coarser one of its
+        own (:meth:`GasLoads.on_cycle` brings it onto the cycle's).
     gas : GasLoads
         The gas loads (:func:`harmbal.model.gas.gas_loads`).
+    spectrum : ndarray, optional
+        The phasors of ``gas.torque``, if already computed.
 
     Returns
     -------
@@ -77,8 +80,8 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     crank_radius = np.array([c.crank_radius for c in scene.cylinders])
 
     # The mass torque repeats every revolution; over the cycle it has whole orders only.
-    mass_torque = np.tile(unit.drive_torque.sum(axis=0), revs)
-    gas_spectrum = phasors(gas.torque, backend)[:, :count]
+    mass_torque = gas.on_cycle(unit.drive_torque.sum(axis=0))
+    gas_spectrum = (phasors(gas.torque, backend) if spectrum is None else spectrum)[:, :count]
     mass_spectrum = np.zeros(count, dtype=complex)
     mass_spectrum[::revs] = phasors(unit.drive_torque.sum(axis=0), backend)[: kmax + 1]
     gas_total = gas_spectrum.sum(axis=0)
@@ -138,8 +141,8 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     }
     if scene.flywheel is not None:
         data.update(_speed_fluctuation(scene, unit, gas, speeds))
-    attrs = attributes(scene, unit.samples_per_rev)
-    attrs.update({"title": f"harmbal torque: {scene.name}", "revolutions": revs})
+    attrs = attributes(scene, unit.samples_per_rev, gas)
+    attrs["title"] = f"harmbal torque: {scene.name}"
     return dataset(data, coords, attrs)
 
 

@@ -204,3 +204,21 @@ def test_cli_report_bad_css_exits_2_and_writes_nothing(tmp_path, capsys, content
     assert main(["report", str(ENGINES / "v-twin-90.toml"), "-o", str(out / "r.html"), "--css", str(css)]) == 2
     assert "house.css" in capsys.readouterr().err
     assert list(out.iterdir()) == []
+
+
+def test_a_speed_sweep_gets_campbell_maps_whose_colours_are_its_order_amplitudes():
+    from harmbal.reporting.sweep_plots import campbell_figure
+    from harmbal.views.sweep import order_amplitude
+
+    scene = hb.load_scene(ENGINES / "v-twin-90.toml")
+    swept = hb.analyse(scene.with_speeds(np.linspace(200.0, 900.0, 8)))
+    names = {name for name, _ in _parse(hb.report(swept)).figures}
+    assert {"campbell-force", "campbell-moment"} <= names
+    two = hb.analyse(scene.with_speeds([300.0, 600.0]))
+    assert not {n for n, _ in _parse(hb.report(two)).figures} & {"campbell-force", "campbell-moment"}
+    # The map's cells are the order amplitudes per (speed, order), floored at 1e-6 of the largest.
+    orders = swept["orders"].ds
+    mesh = campbell_figure(orders, name="moment").axes[0].collections[0]
+    amplitude = order_amplitude(orders["moment"].transpose("speed", "order", "axis").values)
+    expected = np.maximum(amplitude, amplitude.max() * 1e-6).T
+    np.testing.assert_allclose(np.asarray(mesh.get_array()).reshape(expected.shape), expected, rtol=1e-15)

@@ -101,6 +101,10 @@ def _free_vector_stars(tree):
     return with_free_vectors(tree["stars"].ds, tree["orders"].ds)
 
 
+#: Speeds from which the spectrum section adds Campbell maps (order against speed).
+CAMPBELL_SPEEDS = 3
+
+
 def _first_speed(ds):
     return ds.isel(speed=0) if "speed" in ds.dims else ds
 
@@ -169,7 +173,18 @@ def _spectrum(page: _Page, tree, log: bool) -> None:
              f"{rtol:g} of the single-body load scale are balanced and shown as 0."
              + (" Orders are per crank revolution: over the four-stroke cycle of two revolutions they run in halves;"
                 " the inertial loads have whole orders only and the gas adds only the roll moment M_x (at whole and"
-                " half orders)." if half else "") + "</p></section>")
+                " half orders)." if half else "") + "</p>")
+    if tree["orders"].ds.sizes.get("speed", 1) >= CAMPBELL_SPEEDS:
+        from .sweep_plots import campbell_figure
+
+        rpm = tree["orders"].ds["rpm"].values
+        page.add(f'<p class="note">The tables are at {float(rpm[0]):.6g} rpm, the first of {rpm.size} speeds; every '
+                 "speed is in the maps below and in the Datasets.</p>")
+        for name in ("force", "moment"):
+            page.figure(campbell_figure(tree["orders"].ds, name=name),
+                        f"Campbell map: the peak of each order's {name} vector over a revolution against crank speed, "
+                        f"{float(rpm.min()):.6g} to {float(rpm.max()):.6g} rpm.", f"campbell-{name}")
+    page.add("</section>")
 
 
 def _stars(page: _Page, tree) -> None:

@@ -117,6 +117,23 @@ def _rows(components: dict[str, np.ndarray], targets: list[tuple[int, str]], wei
     return np.concatenate([values.real, values.imag])
 
 
+def _factor_scenes(scene: Scene) -> tuple[Scene, Scene]:
+    """The two scenes whose phasors the balance-factor rule sizes counterweights
+    by: the rotating masses with the counterweights already on the crank, and
+    the reciprocating masses."""
+    on_crank = tuple(e for e in scene.shafts if e.on_crank)
+    return (dataclasses.replace(scene.with_effects({"rotating", "balancers"}), shafts=on_crank),
+            scene.with_effects({"reciprocating"}))
+
+
+def _factor_system(candidate: Candidate, kmax: int, sense: int, ref: np.ndarray,
+                   weights: dict[str, float]) -> tuple[np.ndarray, list[tuple[int, str]]]:
+    """The balance-factor rule's matrix and its targets: the first-order
+    co-rotating force, and moment if there is more than one plane."""
+    rows = [(1, "force_co")] + ([(1, "moment_co")] if len(candidate.planes) > 1 else [])
+    return _matrix(candidate.unknowns(), rows, kmax, sense, ref, weights), rows
+
+
 def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: np.ndarray,
                            weights: dict[str, float]) -> np.ndarray:
     """Unknowns of counterweights sized by the balance-factor rule: together
@@ -124,13 +141,10 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
     co-rotating force and moment (static balance alone with one plane) of the
     rotating masses (throw and crankshaft unbalances, rod big ends, the
     crankshaft's own CG) plus 2f × those of the reciprocating masses."""
-    on_crank = tuple(e for e in scene.shafts if e.on_crank)
-    rot = order_phasors(dataclasses.replace(scene.with_effects({"rotating", "balancers"}), shafts=on_crank))
-    rec = order_phasors(scene.with_effects({"reciprocating"}))
+    rot, rec = (order_phasors(s) for s in _factor_scenes(scene))
     f = candidate.balance_factor
     target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
-    rows = [(1, "force_co")] + ([(1, "moment_co")] if len(candidate.planes) > 1 else [])
-    a = _matrix(candidate.unknowns(), rows, kmax, scene.sense, ref, weights)
+    a, rows = _factor_system(candidate, kmax, scene.sense, ref, weights)
     return np.linalg.lstsq(a, -_rows(target, rows, weights), rcond=None)[0]
 
 
@@ -167,6 +181,21 @@ def _describe(order: int, name: str) -> str:
         return f"order {order} roll moment"
     what, rotation = name.split("_")
     return f"order {order} {rotation}-rotating {what}"
+
+
+def _check_request(scene: Scene, request: DesignRequest | None) -> None:
+    """Refuse a request that cannot be set up: none, a scene that does not
+    simulate balancers, orders or shaft ratios above the scene's max_order."""
+    if request is None:
+        raise DesignError(f"{scene.source}: no [design] table: say which orders to balance with which elements "
+                          "(docs/design.md)")
+    if "balancers" not in scene.model.effects:
+        raise DesignError(f"{scene.source}: model.effects: add \"balancers\"; without it the designed elements "
+                          "would not be simulated")
+    kmax = scene.sampling.max_order
+    if max(request.orders) > kmax or max((abs(c.ratio) for c in request.candidates), default=0) > kmax:
+        raise DesignError(f"{scene.source}: design.orders: orders and shaft ratios must not exceed "
+                          f"sampling.max_order = {kmax}")
 
 
 def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = None, *, name: str | None = None,
@@ -206,16 +235,8 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         from .lever import design_lever
 
         return design_lever(scene, request, name=name, description=description)
-    if request is None:
-        raise DesignError(f"{scene.source}: no [design] table: say which orders to balance with which elements "
-                          "(docs/design.md)")
-    if "balancers" not in scene.model.effects:
-        raise DesignError(f"{scene.source}: model.effects: add \"balancers\"; without it the designed elements "
-                          "would not be simulated")
+    _check_request(scene, request)
     kmax = scene.sampling.max_order
-    if max(request.orders) > kmax or max((abs(c.ratio) for c in request.candidates), default=0) > kmax:
-        raise DesignError(f"{scene.source}: design.orders: orders and shaft ratios must not exceed "
-                          f"sampling.max_order = {kmax}")
     sense = scene.sense
     ref = np.asarray(scene.reference_point, dtype=float)
     engine = order_phasors(scene)
@@ -311,6 +332,47 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     return Design(designed, text, elements, dataset, tuple(messages))
 
 
+#: Singular values at most this fraction of the whole (weighted) matrix's
+#: 2-norm are round-off in :func:`_prioritised_least_squares`.
+RANK_RTOL = 1e-10
+
+
+@dataclass(frozen=True)
+class _Stage:
+    """One priority group of :func:`_prioritised_least_squares`: its real
+    ``rows``, the orthonormal ``basis`` of the minimisers left by the groups
+    before, and the SVD ``u``, ``singular``, ``vt`` of ``a[rows] @ basis``
+    of which the first ``rank`` singular values are kept."""
+
+    group: str
+    rows: list[int]
+    basis: np.ndarray
+    u: np.ndarray
+    singular: np.ndarray
+    vt: np.ndarray
+    rank: int
+
+
+def _stages(a: np.ndarray, targets) -> tuple[list[_Stage], np.ndarray]:
+    """The stages of :func:`_prioritised_least_squares` for the matrix ``a``
+    (they do not depend on the right-hand side) and the basis of the
+    minimisers left after the last."""
+    n = len(targets)
+    basis = np.eye(a.shape[1])
+    cutoff = RANK_RTOL * (np.linalg.norm(a, 2) if a.size else 0.0)
+    stages = []
+    for group in ("force", "moment", "roll"):
+        rows = [i for i, (_, name) in enumerate(targets) if name.startswith(group)]
+        if not rows or basis.shape[1] == 0:
+            continue
+        rows += [i + n for i in rows]
+        u, singular, vt = np.linalg.svd(a[rows] @ basis)
+        rank = int((singular > cutoff).sum())
+        stages.append(_Stage(group, rows, basis, u, singular, vt, rank))
+        basis = basis @ vt[rank:].T
+    return stages, basis
+
+
 def _prioritised_least_squares(a: np.ndarray, b: np.ndarray, targets) -> np.ndarray:
     """Minimise |b + a·z| for the force rows, then, among those minimisers,
     for the moment rows, then for the roll rows; finally take the smallest z.
@@ -321,22 +383,16 @@ def _prioritised_least_squares(a: np.ndarray, b: np.ndarray, targets) -> np.ndar
     restricted to the earlier null space. Singular values are judged against
     the whole matrix (rows are already scaled alike), not within a stage:
     a stage whose restricted rows are round-off must not be solved with them.
+    ``b`` may be a matrix (rows, ...): then z is one column per column of b,
+    the solution being linear in b for a fixed a.
     """
-    n = len(targets)
-    z = np.zeros(a.shape[1])
-    basis = np.eye(a.shape[1])
-    cutoff = 1e-10 * (np.linalg.norm(a, 2) if a.size else 0.0)
-    for group in ("force", "moment", "roll"):
-        rows = [i for i, (_, name) in enumerate(targets) if name.startswith(group)]
-        if not rows or basis.shape[1] == 0:
-            continue
-        rows += [i + n for i in rows]
-        u, singular, vt = np.linalg.svd(a[rows] @ basis)
-        rank = int((singular > cutoff).sum())
-        rhs = -(b[rows] + a[rows] @ z)
-        z = z + basis @ (vt[:rank].T @ ((u[:, :rank].T @ rhs) / singular[:rank]))
-        basis = basis @ vt[rank:].T
-    return z - basis @ (basis.T @ z)  # the smallest unbalances among the minimisers
+    stages, null = _stages(a, targets)
+    z = np.zeros(a.shape[1:] + b.shape[1:])
+    for s in stages:
+        rhs = -(b[s.rows] + a[s.rows] @ z)
+        step = np.divide((s.u[:, :s.rank].T @ rhs).T, s.singular[:s.rank]).T
+        z = z + s.basis @ (s.vt[:s.rank].T @ step)
+    return z - null @ (null.T @ z)  # the smallest unbalances among the minimisers
 
 
 def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:

@@ -8,13 +8,12 @@ from ._version import __version__
 from .labelled import CONVENTIONS, Speeds, dataset, tree
 from .model.evaluate import evaluate
 from .model.gas import gas_loads
-from .model.sampling import choose_samples, inertia_samples, simulates_gas
+from .model.sampling import body_decay_rates, choose_samples, inertia_samples, simulates_gas
 from .orders.phasors import order_phasors
-from .orders.spectrum import phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
 from .views.stars import stars_dataset
-from .views.time import body_aliasing, body_moments, gas_aliasing, time_dataset
+from .views.time import body_aliasing, body_moments, gas_phasors, time_dataset
 from .views.torque import torque_dataset
 
 
@@ -84,13 +83,14 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         return _fluctuating(scene, per_cylinder, backend)
     # With gas the inertia keeps a grid of its own, coarser than the gas's: only the time-domain views
     # need it on the gas grid, where it is interpolated (inertia_samples says why that is exact enough).
-    samples = choose_samples(scene)
-    unit = evaluate(scene, inertia_samples(scene), peak_samples=samples)
+    rates = body_decay_rates(scene)
+    samples = choose_samples(scene, rates)
+    unit = evaluate(scene, inertia_samples(scene, rates, samples), peak_samples=samples, decay_rates=rates)
     gas = gas_loads(scene, samples) if simulates_gas(scene) else None
     moments = body_moments(unit)
     aliasing = body_aliasing(unit, backend, moments)
-    gas_spectrum = None if gas is None else phasors(gas.torque, backend)  # one FFT for the tail, /orders, /torque
-    gas_tail = None if gas is None else gas_aliasing(gas, scene.sampling.max_order, backend, gas_spectrum)
+    # The gas torque's phasors and tail, once for /time, /orders and /torque.
+    gas_spectrum, gas_tail = (None, None) if gas is None else gas_phasors(gas, scene.sampling.max_order, backend)
     time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing, gas=gas,
                         gas_tail=gas_tail, backend=backend)
     values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas, gas_tail, gas_spectrum)

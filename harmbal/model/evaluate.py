@@ -241,7 +241,7 @@ TYPE_FIELDS = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "p
 
 
 def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bool = False,
-             peak_samples: int | None = None) -> UnitLoads:
+             peak_samples: int | None = None, decay_rates: np.ndarray | None = None) -> UnitLoads:
     """Evaluate the exact model once at ω = 1 rad/s, only the scene's effects.
 
     With ``tangential``, the loads per unit crank acceleration α = 1 rad/s²
@@ -260,12 +260,14 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         peak loads are taken, by trigonometric interpolation of the loads; default the
         evaluation's own: with gas, the gas grid's, so that the load scales
         are those of the time domain the inertia is interpolated onto.
+    decay_rates : ndarray, optional
+        :func:`harmbal.model.sampling.body_decay_rates`, if already computed.
 
     Returns
     -------
     UnitLoads
     """
-    decay_rates = body_decay_rates(scene)
+    decay_rates = body_decay_rates(scene) if decay_rates is None else decay_rates
     n = samples_per_rev or choose_samples(scene, decay_rates)
     sense, effects = scene.sense, scene.model.effects
     theta = 2 * np.pi * np.arange(n) / n
@@ -303,8 +305,9 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         moment[:, 0] = sense * local[:, 2]
         moment[:, 1] = -x[:, None] * force[:, 2]
         moment[:, 2] = x[:, None] * force[:, 1]
-        peak_force += _peak(type_planar[:, :2], peak_samples)[kind]
-        peak_roll += _peak(type_planar[:, 2:], peak_samples)[kind]
+        fine = type_planar if peak_samples is None else interpolate(type_planar, peak_samples)
+        peak_force += np.hypot(fine[:, 0], fine[:, 1]).max(axis=-1)[kind]
+        peak_roll += np.abs(fine[:, 2]).max(axis=-1)[kind]
 
     crank_force = np.zeros((3, n))
     crank_moment = np.zeros((3, n))
@@ -345,8 +348,9 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
             raise ValueError("lever balancers have no loads per unit crank acceleration yet")
         lever_force, lever_moment = lever_loads(scene.levers, theta, sense, "mass_torque" in effects)
         element_force, element_moment = element_force + lever_force, element_moment + lever_moment
-        lever_peak_force = float(_peak(lever_force, peak_samples))
-        lever_peak_moment = float(_peak(moment_about(ref, lever_force, lever_moment), peak_samples))
+        fine = np.stack([lever_force, moment_about(ref, lever_force, lever_moment)])
+        fine = fine if peak_samples is None else interpolate(fine, peak_samples)
+        lever_peak_force, lever_peak_moment = (float(v) for v in np.linalg.norm(fine, axis=1).max(axis=-1))
 
     # |M_i| ≤ |roll| + |r − ref|·|F| with r the farthest point of cylinder i's loads.
     arm = np.array([max([abs(c.x - ref[0])] + [abs(u.x - ref[0]) for u in c.throw_unbalances]) for c in cyls])
@@ -366,15 +370,6 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
         kinetic_energy=kinetic_energy,
     )
-
-
-def _peak(vectors: np.ndarray, samples: int | None) -> np.ndarray:
-    """Largest magnitude over the angle (last axis) of vectors whose
-    components lie along the second-to-last axis, sampled on their grid or,
-    interpolated, on ``samples`` per revolution."""
-    if samples is not None:
-        vectors = interpolate(vectors, samples)
-    return np.sqrt((vectors * vectors).sum(axis=-2)).max(axis=-1)
 
 
 def moment_about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np.ndarray:

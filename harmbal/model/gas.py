@@ -39,7 +39,10 @@ class GasLoads:
     * ``volume`` (cylinder, M) [m³]: displaced volume above TDC, A·(c_TDC − c_B(θ)),
       from 0 at TDC to the swept volume at BDC (the clearance volume is not
       known from a measured trace, so it is left out);
-    * ``swept_volume`` (cylinder,) [m³]: piston area × stroke (0 without gas).
+    * ``swept_volume`` (cylinder,) [m³]: piston area × stroke (0 without gas);
+    * ``template``, ``shift`` (cylinder,): each cylinder's loads are those of
+      cylinder ``template`` rolled by ``shift`` samples (its own index and 0
+      for a cylinder evaluated, or without gas).
     """
 
     theta: np.ndarray
@@ -51,6 +54,8 @@ class GasLoads:
     firing_angle: np.ndarray
     volume: np.ndarray
     swept_volume: np.ndarray
+    template: np.ndarray
+    shift: np.ndarray
 
     @property
     def roll(self) -> np.ndarray:
@@ -111,36 +116,45 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     m = samples_per_rev * revolutions
     theta = 2 * np.pi * np.arange(m) / samples_per_rev
     firing_angle = np.asarray(cylinder_firing(cyls, scene.cycle, scene.firing_order).angle, dtype=float)
-    pressure, force, torque, volume = (np.zeros((len(cyls), m)) for _ in range(4))
+    loads = np.zeros((4, len(cyls), m))  # pressure, force, torque, volume
     swept = np.zeros(len(cyls))
+    template, shift = np.arange(len(cyls)), np.zeros(len(cyls), dtype=int)
     series = scene.model.series_harmonics if scene.model.piston == "series" else None
     # Cylinders with the same trace and slider-crank have the same loads, shifted to their firing TDC: each
     # such group is evaluated once and the others rolled, when their firing TDCs are whole samples apart.
-    evaluated: dict[tuple, int] = {}
-    shifted: list[tuple[int, int, int]] = []  # (cylinder, the one evaluated, firing whole samples later)
+    evaluated: list[int] = []
     for i, c in enumerate(cyls):
         gas = c.gas
         if gas is None:
             continue
-        key = (gas, c.crank_radius, c.rod_length, c.offset)
-        first = evaluated.get(key)
+        # Compared, not hashed: a measured trace's table hashes anew at every lookup, which costs more than the
+        # comparison (none at all for the same object, the usual case).
+        first = next((j for j in evaluated if _same_loads(cyls[j], c)), None)
         steps = None if first is None else grid_steps(firing_angle[i] - firing_angle[first], samples_per_rev)
         if steps is not None:
-            shifted.append((i, first, steps))
+            k = steps % m
+            template[i], shift[i] = first, k
+            loads[:, i, k:] = loads[:, first, : m - k]  # np.roll by k, without its copies
+            loads[:, i, :k] = loads[:, first, m - k:]
+            swept[i] = swept[first]
             continue
-        evaluated.setdefault(key, i)
-        kin = slider_crank(theta + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset, series)
-        pressure[i] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, scene.cycle,
-                                        theta - firing_angle[i])
-        force[i] = (pressure[i] - gas.crankcase_pressure) * gas.piston_area
-        torque[i] = -force[i] * kin.db
-        volume[i] = gas.piston_area * (top_dead_centre_travel(c.crank_radius, c.rod_length, c.offset) - kin.b)
+        if first is None:
+            evaluated.append(i)
+        # The slider-crank repeats every revolution: evaluated over one.
+        kin = slider_crank(theta[:samples_per_rev] + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset,
+                           series)
+        loads[0, i] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, scene.cycle, theta - firing_angle[i])
+        loads[1, i] = (loads[0, i] - gas.crankcase_pressure) * gas.piston_area
+        loads[2, i] = -loads[1, i] * np.tile(kin.db, revolutions)
+        travel = top_dead_centre_travel(c.crank_radius, c.rod_length, c.offset) - kin.b
+        loads[3, i] = gas.piston_area * np.tile(travel, revolutions)
         swept[i] = gas.piston_area * stroke(c.crank_radius, c.rod_length, c.offset)
-    for i, first, steps in shifted:
-        k = steps % m
-        for values in (pressure, force, torque, volume):  # np.roll by k, without its copies
-            values[i, k:] = values[first, : m - k]
-            values[i, :k] = values[first, m - k:]
-        swept[i] = swept[first]
+    pressure, force, torque, volume = loads
     return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
-                    torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept)
+                    torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept, template=template,
+                    shift=shift)
+
+
+def _same_loads(a, b) -> bool:
+    """Whether cylinders ``a`` and ``b`` have the same gas table and slider-crank."""
+    return (a.crank_radius, a.rod_length, a.offset) == (b.crank_radius, b.rod_length, b.offset) and a.gas == b.gas

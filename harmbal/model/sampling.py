@@ -70,7 +70,7 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
     return 8 * math.ceil(n / 8)
 
 
-def inertia_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
+def inertia_samples(scene: Scene, decay_rates: np.ndarray | None = None, samples: int | None = None) -> int:
     """Samples per revolution of the inertia loads, which with gas are
     evaluated on a grid of their own and brought to the gas grid by
     trigonometric interpolation (:func:`interpolate`).
@@ -84,12 +84,14 @@ def inertia_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
     The count is also what the inertia needs without gas, and never more
     than the gas grid's (:func:`choose_samples`), on which the inertia is
     then evaluated directly. Without gas, or with a fixed
-    ``samples_per_rev``, it is :func:`choose_samples`' count.
+    ``samples_per_rev``, it is :func:`choose_samples`' count. ``decay_rates``
+    and ``samples``: :func:`body_decay_rates` and :func:`choose_samples`' count
+    if already computed.
     """
-    n = choose_samples(scene, decay_rates)
+    rates = body_decay_rates(scene) if decay_rates is None else decay_rates
+    n = choose_samples(scene, rates) if samples is None else samples
     if not simulates_gas(scene) or scene.sampling.samples_per_rev is not None:
         return n
-    rates = body_decay_rates(scene) if decay_rates is None else decay_rates
     own = choose_samples(scene.with_effects(scene.model.effects - {"gas"}), rates)
     rho = float(rates.max())
     needed = [2 * _tail_order(rho, scene.sampling.accuracy, scene.sampling.max_order)] if rho > 0 else []

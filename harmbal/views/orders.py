@@ -10,7 +10,7 @@ from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, aliasing_estimate, phasors, rotating_split
 from ..scene import Scene
-from .time import attributes, gas_aliasing
+from .time import attributes, gas_phasors
 
 
 def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", workers: int | None = None):
@@ -158,8 +158,8 @@ def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "
     :func:`harmbal.views.time.body_aliasing`), and, with ``gas``, those of the
     speed-independent gas loads over the cycle (else None; ``gas_tail``:
     :func:`harmbal.views.time.gas_aliasing`, ``gas_spectrum``: the phasors
-    of ``gas.torque``, if already computed); the values at speed ω are the
-    first times ω² plus the second."""
+    of :func:`harmbal.views.time.gas_phasors`, if already computed); the
+    values at speed ω are the first times ω² plus the second."""
     force, moment = unit.total()
     spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order)
     kmax = scene.sampling.max_order
@@ -173,11 +173,10 @@ def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "
     spread[..., ::revs] = spectrum[..., : kmax + 1]
     values, attrs = order_arrays(spread[0], spread[1], tails, scales, attrs, max_order=kmax, backend=backend,
                                  revolutions=revs)
-    gas_spectrum = phasors(gas.torque, backend) if gas_spectrum is None else gas_spectrum
+    if gas_spectrum is None or gas_tail is None:
+        gas_spectrum, gas_tail = gas_phasors(gas, kmax, backend)
     gas_moment = gas.moment(gas_spectrum)
-    gas_values, gas_attrs = order_arrays(np.zeros_like(gas_moment), gas_moment,
-                                         {"force": np.zeros(3), "moment": gas_aliasing(gas, kmax, backend, gas_spectrum)
-                                          if gas_tail is None else gas_tail},
+    gas_values, gas_attrs = order_arrays(np.zeros_like(gas_moment), gas_moment, {"force": np.zeros(3), "moment": gas_tail},
                                          {"force": 0.0, "moment": gas.moment_scale}, attrs, max_order=kmax,
                                          backend=backend, revolutions=revs)
     attrs["gas_accuracy_reached"] = gas_attrs["accuracy_reached"]

@@ -94,14 +94,29 @@ def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None
     return tail[:3], tail[3:]
 
 
-def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy", spectrum=None) -> np.ndarray:
+def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy") -> np.ndarray:
     """Aliasing estimate of the gas moment's phasors per axis (only x is
-    nonzero), summed over the cylinders without cancellation; ``spectrum``:
-    the phasors of ``gas.torque`` if already computed."""
-    n = gas.theta.size
-    spectrum = phasors(gas.torque, backend) if spectrum is None else spectrum
-    tail = aliasing_estimate(np.abs(spectrum), n, gas.revolutions * max_order).sum(axis=0)
-    return np.array([tail, 0.0, 0.0])
+    nonzero), summed over the cylinders without cancellation."""
+    return gas_phasors(gas, max_order, backend)[1]
+
+
+def gas_phasors(gas: GasLoads, max_order: int, backend: str = "scipy") -> tuple[np.ndarray, np.ndarray]:
+    """Order phasors of each cylinder's gas torque, orders 0 … ``max_order``
+    in steps of 1/revolutions (cylinder, order), and :func:`gas_aliasing`.
+
+    One FFT per cylinder evaluated (``gas.template``): a cylinder whose
+    torque is another's rolled by s of the M samples has that one's phasors
+    times e^{−2πiks/M} (the shift theorem, exact for a roll) and the same
+    magnitudes, hence the same tail estimate.
+    """
+    rows = np.flatnonzero(gas.template == np.arange(gas.template.size))  # a template is its own
+    position = np.searchsorted(rows, gas.template)
+    spectrum = phasors(gas.torque[rows], backend)
+    count = gas.revolutions * max_order + 1
+    k = np.arange(count)
+    orders = spectrum[position, :count] * np.exp(-2j * np.pi * np.multiply.outer(gas.shift, k) / gas.theta.size)
+    tail = aliasing_estimate(np.abs(spectrum), gas.theta.size, count - 1) @ np.bincount(position)
+    return orders, np.array([tail, 0.0, 0.0])
 
 
 def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None,

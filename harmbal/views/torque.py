@@ -11,7 +11,7 @@ from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
 from ..orders.spectrum import is_balanced, phasors
 from ..scene import Scene
-from .time import attributes
+from .time import attributes, gas_phasors
 
 #: An order is "major" when the arms of its firing star coincide to within this (of the cylinder count).
 MAJOR_RTOL = 1e-9
@@ -39,7 +39,8 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     gas : GasLoads
         The gas loads (:func:`harmbal.model.gas.gas_loads`).
     spectrum : ndarray, optional
-        The phasors of ``gas.torque``, if already computed.
+        The gas torque's phasors (:func:`harmbal.views.time.gas_phasors`),
+        if already computed.
 
     Returns
     -------
@@ -81,13 +82,12 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
 
     # The mass torque repeats every revolution; over the cycle it has whole orders only.
     mass_torque = gas.on_cycle(unit.drive_torque.sum(axis=0))
-    gas_spectrum = (phasors(gas.torque, backend) if spectrum is None else spectrum)[:, :count]
-    mass_spectrum = np.zeros(count, dtype=complex)
-    mass_spectrum[::revs] = phasors(unit.drive_torque.sum(axis=0), backend)[: kmax + 1]
+    gas_spectrum = gas_phasors(gas, kmax, backend)[0] if spectrum is None else spectrum
     gas_total = gas_spectrum.sum(axis=0)
     # Each cylinder's mass torque over the cycle: whole orders only.
     mass_cylinder = np.zeros((len(scene.cylinders), count), dtype=complex)
     mass_cylinder[:, ::revs] = phasors(unit.drive_torque, backend)[:, : kmax + 1]
+    mass_spectrum = mass_cylinder.sum(axis=0)
     work = 2 * np.pi * revs * gas_spectrum[:, 0].real  # ∫T dθ over the cycle = ∮(p − p_crankcase) dV
     imep = np.divide(work, gas.swept_volume, out=np.full_like(work, np.nan), where=gas.swept_volume > 0)
     arms, resultant = firing_stars(gas.firing_angle, order)

@@ -159,6 +159,9 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--moment-limit", type=float, metavar="NM",
                        help="Monte Carlo: the same for the moment [N m]")
     sweep.add_argument("--peaks", action="store_true", help="also the peak force and moment over a revolution")
+    sweep.add_argument("--design", action="store_true",
+                       help="design the balancers of every variant from the scene's [design] table, and report the "
+                            "designed unbalances and the residuals with them")
     sweep.add_argument("-o", "--output", type=Path,
                        help="write the results to this netCDF archive (.nc) or Zarr store (.zarr, needs harmbal[dask])")
     sweep.add_argument("--chunks", type=_positive_int, metavar="N",
@@ -333,11 +336,13 @@ def _sweep(args) -> None:
         if args.monte_carlo is not None:
             ds = monte_carlo(scene, dict(args.tol), args.monte_carlo, seed=args.seed, orders=args.orders,
                              peaks=args.peaks, force_limit=args.force_limit, moment_limit=args.moment_limit,
-                             progress=bar, phasors=args.output is not None, chunks=args.chunks)
+                             progress=bar, phasors=args.output is not None, chunks=args.chunks,
+                             design=args.design)
         else:
             # The table and the figures need the amplitudes only: the phasors are kept for an archive.
             ds = sweep(scene, dict(args.sets), mode="zip" if args.zip else "grid", orders=args.orders,
-                       peaks=args.peaks, progress=bar, phasors=args.output is not None, chunks=args.chunks)
+                       peaks=args.peaks, progress=bar, phasors=args.output is not None, chunks=args.chunks,
+                       design=args.design)
     except SceneError as exc:
         raise _BadInput(str(exc)) from None
     except ValueError as exc:

@@ -407,12 +407,6 @@ def test_a_shared_key_and_a_cylinder_override_of_it_are_read_per_variant():
     _assert_variant_equals_analysis(ds, 1, raw)
 
 
-def test_a_key_that_changes_nothing_reported_is_refused():
-    # [design] keys are read and validated, but the design is not solved per variant: the sweep says so.
-    with pytest.raises(SceneError, match="design.counterweights\\[1\\].balance_factor.*designing the balancers"):
-        hb.sweep(ENGINES / "test-single.toml", {"design.counterweights[1].balance_factor": [0.0, 0.5]})
-
-
 def test_blocks_of_variants_give_the_whole_to_round_off():
     # What chunking relies on: any block of variants, evaluated from the plan alone, gives those variants'
     # results. BLAS picks its kernel by the block's shape, so blocks agree with the whole to round-off, and
@@ -465,3 +459,85 @@ def test_campbell_map_of_a_speed_sweep(tmp_path):
     save_figure(fig, tmp_path / "campbell.svg")
     with pytest.raises(ValueError, match="several speeds"):
         campbell_figure(hb.analyse(hb.load_scene(ENGINES / "v-twin-90.toml"))["orders"].ds)
+
+
+def test_design_per_variant_equals_harmbal_design_of_each_variant_written_out():
+    # hb.sweep(design=True) against hb.design of each variant's scene (written into the mapping here by
+    # hand) and order_phasors of the designed scene, including a swept [design] key (the balance factor).
+    from harmbal.model.evaluate import evaluate
+    from harmbal.orders.phasors import order_phasors
+
+    keys = {"piston.mass": [0.30, 0.45], "rod.mass": [0.25, 0.40],
+            "design.counterweights[1].balance_factor": [0.0, 0.5, 1.0]}
+    ds = hb.sweep(ENGINES / "test-single.toml", keys, design=True, orders=[0, 1, 2, 3])
+    lazy = hb.sweep(ENGINES / "test-single.toml", keys, design=True, orders=[0, 1, 2, 3], chunks=5)
+    assert ds.attrs["geometry_keys"] == ["design.counterweights[1].balance_factor"]
+    w2 = ds.attrs["speed_rad_s"][0] ** 2
+    for i in range(ds.sizes["variant"]):
+        raw = _raw("test-single")
+        v = ds.isel(variant=i)
+        raw["piston"]["mass"], raw["rod"]["mass"] = float(v["piston.mass"]), float(v["rod.mass"])
+        raw["design"]["counterweights"][0]["balance_factor"] = float(v["design.counterweights[1].balance_factor"])
+        scene = hb.load_scene(raw)
+        designed = hb.design(scene)
+        unit = evaluate(scene)
+        force_scale, moment_scale = w2 * unit.force_scale, w2 * unit.moment_scale
+        expected = designed.dataset
+        np.testing.assert_array_equal(v.element.values, expected.element.values)
+        np.testing.assert_allclose(v.design_unbalance.values, expected.unbalance.values, rtol=0,
+                                   atol=1e-12 * unit.force_scale)
+        big = expected.unbalance.values > 1e-9 * unit.force_scale  # a phase of a zero unbalance means nothing
+        np.testing.assert_allclose(np.exp(1j * v.design_unbalance_angle.values[big]),  # ±π are one direction
+                                   np.exp(1j * expected.unbalance_angle.values[big]), rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(v.design_cancelled.values, expected.cancelled.values)
+        np.testing.assert_array_equal(ds.design_targeted.values, expected.targeted.values)
+        scale = np.where(expected.component_units.values == "N", force_scale, moment_scale)
+        assert (np.abs(v.design_residual.values - expected.predicted.values) <= 1e-12 * scale).all()
+        verified = order_phasors(designed.scene)
+        for name, reference, s in (("residual_force", verified.force, force_scale),
+                                   ("residual_moment", verified.moment, moment_scale)):
+            np.testing.assert_allclose(v[name].values, w2 * reference[:, [0, 1, 2, 3]].T, rtol=0, atol=1e-12 * s,
+                                       err_msg=f"{name} variant {i}")
+    for name in ("design_unbalance", "design_residual", "design_cancelled", "residual_force_amplitude"):
+        computed = lazy[name].values
+        if computed.dtype == bool:
+            np.testing.assert_array_equal(computed, ds[name].values)
+        else:
+            np.testing.assert_allclose(computed, ds[name].values, rtol=0, atol=1e-15 * np.abs(ds[name].values).max())
+
+
+def test_design_per_variant_is_refused_without_a_design_table_or_with_the_peak_objective(tmp_path):
+    with pytest.raises(SceneError, match="needs the scene's \\[design\\] table"):
+        hb.sweep(ENGINES / "v-twin-90.toml", {"piston.mass": [0.38, 0.4]}, design=True)
+    raw = _raw("test-single")
+    raw["design"]["objective"] = "peak"
+    raw["design"]["peak"] = ["moment_y", "moment_z"]
+    path = tmp_path / "peak.toml"
+    import tomli_w
+
+    path.write_text(tomli_w.dumps(raw), encoding="utf-8")
+    with pytest.raises(SceneError, match="peak") as info:
+        hb.sweep(path, {"piston.mass": [0.38, 0.4]}, design=True)
+    assert "peak.toml" in str(info.value)
+
+
+def test_a_design_key_without_design_is_refused_and_says_how_to_design_per_variant():
+    # [design] keys are read and validated; without design=True they change nothing reported: the sweep says so.
+    with pytest.raises(SceneError, match=r"design.counterweights\[1\].balance_factor = 0.5: changes nothing a "
+                                         r"sweep reports.*design=True \(--design\) designs the balancers"):
+        hb.sweep(ENGINES / "test-single.toml", {"design.counterweights[1].balance_factor": [0.0, 0.5]})
+
+
+def test_cli_design_per_variant(capsys):
+    from harmbal.cli import main
+
+    args = ["sweep", str(ENGINES / "test-single.toml"), "--set", "piston.mass=0.3:0.5:5",
+            "--set", "design.counterweights[1].balance_factor=0,0.5,1"]
+    assert main(args) == 2
+    assert "--design" in capsys.readouterr().err
+    assert main(args + ["--design"]) == 0
+    out = capsys.readouterr().out
+    assert "force after design" in out and "moment after design" in out
+    assert "variants with every target cancelled: 15 of 15" in out
+    for element in ("counterweight 1", "counterweight 2", "first-order balance shafts (+1×)"):
+        assert f"  {element}: " in out

@@ -35,6 +35,12 @@ def table_inputs(ds):
     return ds.drop_vars([n for n in _PHASORS if n in ds])
 
 
+def _all_cancelled(ds) -> np.ndarray:
+    """(variant,) whether the design cancelled every component it targeted."""
+    cancelled = ds["design_cancelled"].transpose(_dim(ds), "design_order", "component").values
+    return cancelled[:, ds["design_targeted"].transpose("design_order", "component").values].all(axis=1)
+
+
 def sweep_table(ds) -> str:
     """Best and worst variant and percentiles of the order residuals.
 
@@ -80,19 +86,33 @@ def sweep_table(ds) -> str:
             lines.append(f"{label} by {name}: {dim} {i}: {'; '.join(_key_value(ds, k, i) for k in keys)}")
             lines.append(f"    {name} [{units}]: {per_order}")
     lines.append("")
-    header = f"{'order':>5}  {'':<7}" + "".join(f"{f'{q:g} %':>12}" for q in PERCENTILES)
+    rows = [(name, units, label) for name, units, label in (
+        ("force", "N", "force"), ("moment", "N m", "moment"), ("residual_force", "N", "force after design"),
+        ("residual_moment", "N m", "moment after design")) if f"{name}_amplitude" in ds]
+    width = max(len(label) for _, _, label in rows)
+    header = f"{'order':>5}  {'':<{width}}" + "".join(f"{f'{q:g} %':>12}" for q in PERCENTILES)
     extra = dim == "sample"
     if extra:
         header += f"{'mean':>12}{'std':>12}"
     lines.append(header)
-    for name, units in (("force", "N"), ("moment", "N m")):
+    for name, units, label in rows:
         amplitude = ds[f"{name}_amplitude"].transpose(dim, "order").values
         stats = np.percentile(amplitude, PERCENTILES, axis=0)
         for j, k in enumerate(orders):
-            row = f"{k:>5}  {name:<7}" + "".join(f"{v:>12.5g}" for v in stats[:, j])
+            row = f"{k:>5}  {label:<{width}}" + "".join(f"{v:>12.5g}" for v in stats[:, j])
             if extra:
                 row += f"{amplitude[:, j].mean():>12.5g}{amplitude[:, j].std(ddof=1) if count > 1 else 0.0:>12.5g}"
             lines.append(row + f"  {units}")
+    if "design_unbalance" in ds:
+        unbalance = ds["design_unbalance"].transpose(dim, "element").values
+        stats = np.percentile(unbalance, PERCENTILES, axis=0)
+        lines.append("")
+        lines.append(f"designed per variant ([design], orders {', '.join(map(str, ds['design_order'].values))}): "
+                     f"unbalance of each element [kg m], percentiles {', '.join(map(str, PERCENTILES))} %; "
+                     f"variants with every target cancelled: "
+                     f"{int(_all_cancelled(ds).sum())} of {count}")
+        for j, element in enumerate(ds["element"].values):
+            lines.append(f"  {element}: " + ", ".join(f"{v:.5g}" for v in stats[:, j]))
     for name, units in (("force", "N"), ("moment", "N m")):
         if f"p_exceed_{name}" in ds:
             share = ds[f"p_exceed_{name}"]

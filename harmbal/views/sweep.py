@@ -28,7 +28,7 @@ import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from numbers import Real
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,9 @@ from ..orders.spectrum import ROTATION
 from ..scene import Scene, SceneError, load_scene
 from ..scene.schema import _MISSING, Problem
 from ..scene.units import SI_UNITS, QuantityError, to_si
+
+if TYPE_CHECKING:
+    from ..balance.variants import DesignBasis
 
 MODES = ("grid", "zip")
 
@@ -118,6 +121,7 @@ class WeightClasses:
 
 
 def _fail(source: str, key: str, value: Any, rule: str):
+    value = value.item() if isinstance(value, np.generic) else value  # as written, not np.float64(…)
     return SceneError([Problem(source, key, value, rule)])
 
 
@@ -278,7 +282,7 @@ class _Reader:
 
 
 def _linear_coefficients(reader: _Reader, key: str, values: list, si: np.ndarray, base_key: Scene,
-                         base_slots: np.ndarray) -> dict[int, float] | None:
+                         base_slots: np.ndarray, design: bool) -> dict[int, float] | None:
     """{slot: slot value per SI unit of the key} if ``key`` moves only slots, in
     proportion to its value, else None (a geometry key). The key is read at its
     smallest, median and largest value, which validates those values; the
@@ -288,9 +292,11 @@ def _linear_coefficients(reader: _Reader, key: str, values: list, si: np.ndarray
     scenes = [reader.read({key: _toml_value(values[p])}) for p in probes]
     slots = np.array([slot_values(s)[1] for s in scenes])
     if any(geometry_key(s) != base_key for s in scenes):
-        if (slots == base_slots).all() and all(_outputs_key(s) == _outputs_key(base_key) for s in scenes):
+        if (slots == base_slots).all() and all(_outputs_key(s, design) == _outputs_key(base_key, design)
+                                               for s in scenes):
+            hint = "; design=True (--design) designs the balancers per variant" if key.startswith("design.") else ""
             raise _fail(reader.scene.source, key, values[probes[-1]], "changes nothing a sweep reports (the free "
-                        "forces and moments); designing the balancers per variant is not done yet")
+                        f"forces and moments{', the design' if design else ''}){hint}")
         return None
     moved = np.flatnonzero((slots != base_slots).any(axis=0))
     x = si[probes]
@@ -305,11 +311,12 @@ def _linear_coefficients(reader: _Reader, key: str, values: list, si: np.ndarray
     return coefficients
 
 
-def _outputs_key(scene: Scene) -> Scene:
-    """The scene without what the sweep's results do not depend on: requests ([design], [verify],
-    [loads]), outlines, the flywheel (the speed fluctuation is refused), names and the firing order."""
-    return replace(geometry_key(scene), design=None, verify=None, loads=None, outlines=(), flywheel=None, name="",
-                   description="", firing_order=None)
+def _outputs_key(scene: Scene, design: bool) -> Scene:
+    """The scene without what the sweep's results do not depend on: requests ([design] unless the sweep
+    designs, [verify], [loads]), outlines, the flywheel (the speed fluctuation is refused), names and the
+    firing order."""
+    return replace(geometry_key(scene), design=scene.design if design else None, verify=None, loads=None,
+                   outlines=(), flywheel=None, name="", description="", firing_order=None)
 
 
 def _unsupported(scene: Scene) -> str | None:
@@ -377,6 +384,7 @@ class _Plan:
     bases: list[LinearPhasors]           # one per distinct geometry
     base_slots: np.ndarray               # (geometry, slot) the slot values each geometry was read with
     sense: int
+    designs: list[DesignBasis] | None    # one per geometry, if the sweep designs the balancers
 
     def block(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """Geometry (variant,), slot values (variant, slot) and key values {key: (variant,)} of a block."""
@@ -417,14 +425,19 @@ def _si_values(source: str, key: str, vals) -> tuple[np.ndarray, str | None]:
 
 
 def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backend: str,
-          progress: Callable[[int, int], None] | None = None, geometry_keys: frozenset = frozenset()) -> _Plan:
+          progress: Callable[[int, int], None] | None = None, geometry_keys: frozenset = frozenset(),
+          design: bool = False) -> _Plan:
     """Sort the keys, read each distinct geometry once and keep what every
     block of variants needs (``values``: each key's values; ``variants``:
     which of them each variant takes; ``geometry_keys``: keys to treat as
-    geometry whatever they move)."""
+    geometry whatever they move; ``design``: also each geometry's design
+    as maps of its slot values)."""
     reason = _unsupported(scene)
     if reason:
         raise _fail(scene.source, "(scene)", scene.name, reason)
+    if design and scene.design is None:
+        raise _fail(scene.source, "design", _MISSING, "designing per variant needs the scene's [design] table "
+                    "(docs/design.md)")
     reader = _Reader(scene)
     keys = tuple(values)
     si, units = {}, {}
@@ -437,7 +450,7 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
     names, base_slots = slot_values(scene)
     linear: dict[str, dict[int, float]] = {}
     for key in (k for k in keys if k not in geometry_keys):
-        coefficients = _linear_coefficients(reader, key, values[key], si[key], base_key, base_slots)
+        coefficients = _linear_coefficients(reader, key, values[key], si[key], base_key, base_slots, design)
         if coefficients is not None:
             linear[key] = coefficients
     # A slot moved by two keys (mass and radius of one unbalance) is their product, not linear.
@@ -452,7 +465,7 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
 
     columns = [keys.index(k) for k in geometry]
     combos = variants.combinations(columns)
-    bases, slot_rows = [], []
+    bases, slot_rows, designs = [], [], []
     for combo in combos:
         numbers = variants.values_of(combo, columns)
         variant = reader.read({k: _toml_value(values[k][i]) for k, i in zip(geometry, numbers)})
@@ -465,13 +478,31 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
         # A geometry key that also moves a linear key's slot (a rod split and a rod mass): both are geometry.
         clash = {k for k, coefficients in linear.items() if any(slots_here[s] != base_slots[s] for s in coefficients)}
         if clash:
-            return _plan(scene, values, variants, backend, progress, geometry_keys | clash)
+            return _plan(scene, values, variants, backend, progress, geometry_keys | clash, design)
         bases.append(linear_phasors(variant, backend=backend))
+        if design:
+            designs.append(_design_basis(variant, bases[-1], designs[0] if designs else None, geometry))
         if progress is not None:
             progress(len(bases), len(combos))
         slot_rows.append(bases[-1].values)
     return _Plan(keys=keys, si=si, units=units, linear=linear, geometry=geometry, variants=variants, combos=combos,
-                 bases=bases, base_slots=np.array(slot_rows), sense=scene.sense)
+                 bases=bases, base_slots=np.array(slot_rows), sense=scene.sense, designs=designs if design else None)
+
+
+def _design_basis(scene: Scene, basis: LinearPhasors, first: DesignBasis | None, keys: tuple[str, ...]) -> DesignBasis:
+    """The design of one geometry as maps of its slot values; every geometry
+    must design the same elements for the same orders (one ``element`` and
+    ``design_order`` axis for all variants)."""
+    from ..balance.variants import design_basis
+
+    try:
+        made = design_basis(scene, basis)
+    except ValueError as exc:  # DesignError: a request the maps cannot follow (e.g. the peak objective)
+        raise _fail(scene.source, "design", None, str(exc)) from None
+    if first is not None and (made.elements, made.orders) != (first.elements, first.orders):
+        raise _fail(scene.source, ", ".join(keys), None, "changes the designed elements or orders: sweep them as "
+                    "separate scenes")
+    return made
 
 
 # -- evaluation and the Dataset -------------------------------------------------------------------
@@ -505,8 +536,9 @@ def rotating(phasor: np.ndarray, orders: np.ndarray, sense: int) -> np.ndarray:
 
 
 def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.ndarray, orders: np.ndarray,
-                  peak_samples: int | None = None, w2: float = 1.0) -> dict[str, np.ndarray]:
-    """Phasors (and peaks) of a block of variants at one speed.
+                  peak_samples: int | None = None, w2: float = 1.0,
+                  designs: Sequence[DesignBasis] | None = None) -> dict[str, np.ndarray]:
+    """Phasors (and peaks, and designs) of a block of variants at one speed.
 
     Parameters
     ----------
@@ -523,12 +555,20 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
     w2 : float
         Square of the crank speed [rad²/s²]; the loads scale with it exactly
         (applied to each geometry's basis, not to the variants' arrays).
+    designs : sequence of DesignBasis, optional
+        One per geometry (:func:`harmbal.balance.variants.design_basis`):
+        also design the balancers of every variant.
 
     Returns
     -------
     dict
         ``force``, ``moment`` (variant, order, axis) complex [N], [N m];
-        ``peak_force``, ``peak_moment`` (variant,) if asked.
+        ``peak_force``, ``peak_moment`` (variant,) if asked; with ``designs``,
+        ``design_unbalance`` (variant, element) complex [kg m],
+        ``design_residual`` (variant, design order, component) complex [N or
+        N m], ``design_cancelled`` (same) bool, and ``residual_force``,
+        ``residual_moment`` (variant, order, axis): the free phasors of the
+        variant with its designed elements.
     """
     count = len(group)
     force = np.empty((count, len(orders), 3), dtype=complex)
@@ -536,6 +576,12 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
     out = {"force": force, "moment": moment}
     if peak_samples:
         out["peak_force"], out["peak_moment"] = np.empty(count), np.empty(count)
+    if designs:
+        first = designs[0]
+        shape = (count, len(first.orders), len(first.components))
+        out.update(design_unbalance=np.empty((count, len(first.elements)), dtype=complex),
+                   design_residual=np.empty(shape, dtype=complex), design_cancelled=np.empty(shape, dtype=bool),
+                   residual_force=np.empty_like(force), residual_moment=np.empty_like(moment))
     # The variants of each geometry that occurs in the block: slices if the block is sorted by geometry (a
     # grid's blocks are, its geometry keys varying slowest), fancy indices otherwise.
     ordered = bool(np.all(group[1:] >= group[:-1]))
@@ -555,6 +601,15 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
             for first in range(0, len(where), _PEAK_BLOCK):
                 block = where[first: first + _PEAK_BLOCK]
                 out["peak_force"][block], out["peak_moment"][block] = peaks(*waves, slots[block])
+        if designs:
+            from ..balance.variants import design_variants
+
+            designed = design_variants(designs[g], slots[rows], orders)
+            out["design_unbalance"][rows] = designed["unbalance"]
+            out["design_residual"][rows] = w2 * designed["residual"]
+            out["design_cancelled"][rows] = designed["cancelled"]
+            out["residual_force"][rows] = w2 * designed["force"].swapaxes(-1, -2)
+            out["residual_moment"][rows] = w2 * designed["moment"].swapaxes(-1, -2)
     return out
 
 
@@ -565,14 +620,16 @@ def _evaluate_block(plan: _Plan, start: int, stop: int, orders: np.ndarray, peak
     co/counter split (a function of the plan and the block alone, so that
     dask can run it on any worker)."""
     group, slots, out = plan.block(start, stop)
-    arrays = evaluate_plan(plan.bases, group, slots, orders, peak_samples, w2)
-    for name in ("force", "moment"):
+    arrays = evaluate_plan(plan.bases, group, slots, orders, peak_samples, w2, plan.designs)
+    for name in ("force", "moment", "residual_force", "residual_moment"):
+        if name not in arrays:
+            continue
         phasor = arrays.pop(name)
         out[f"{name}_amplitude"] = order_amplitude(phasor)
         if phasors:
             out[name] = phasor
             out[f"{name}_rotating"] = rotating(phasor, orders, plan.sense)
-    out.update(arrays)  # the peaks
+    out.update(arrays)  # the peaks and the designs
     return out
 
 
@@ -620,16 +677,20 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
         return variable(speeds.lead + dims, speeds.w2.reshape((-1,) + (1,) * values.ndim) * values[None], var_attrs)
 
     data = {}
-    for name, units in (("force", "N"), ("moment", "N m")):
+    for name, units, what in (("force", "N", "the free shaking force"), ("moment", "N m", "the free shaking moment"),
+                              ("residual_force", "N", "the free force with the designed balancers"),
+                              ("residual_moment", "N m", "the free moment with the designed balancers")):
+        if f"{name}_amplitude" not in arrays:
+            continue
         if name in arrays:
             data[name] = var((dim, "order", "axis"), arrays[name], {
-                "units": units, "long_name": f"order phasor of the free shaking {name}",
+                "units": units, "long_name": f"order phasor of {what}",
                 "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"})
             data[f"{name}_rotating"] = var((dim, "order", "rotation"), arrays[f"{name}_rotating"], {
-                "units": units, "long_name": f"co- and counter-rotating phasors of the transverse {name}",
+                "units": units, "long_name": f"co- and counter-rotating phasors of the transverse part of {what}",
                 "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta)"})
         data[f"{name}_amplitude"] = var((dim, "order"), arrays[f"{name}_amplitude"], {
-            "units": units, "long_name": f"peak over a revolution of the order's {name} vector",
+            "units": units, "long_name": f"peak over a revolution of the order's vector of {what}",
             "description": "sqrt((sum_a |C_a|^2 + |sum_a C_a^2|) / 2)"})
         if f"peak_{name}" in arrays:
             data[f"peak_{name}"] = var((dim,), arrays[f"peak_{name}"], {
@@ -637,6 +698,28 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
                 "description": f"maximum over {attrs['peak_samples']} angles of the orders 0..max_order "
                                "rebuilt from the phasors"})
     coords = {dim: variable((dim,), np.arange(plan.variants.count), {"long_name": f"{dim} number"})}
+    if plan.designs:
+        design = plan.designs[0]
+        unbalance = arrays["design_unbalance"]
+        data["design_unbalance"] = variable((dim, "element"), abs(unbalance), {
+            "units": "kg m", "long_name": "designed unbalance (mass x radius) of each element, as harmbal.design sizes it"})
+        data["design_unbalance_angle"] = variable((dim, "element"), _angle(unbalance), {
+            "units": "rad", "long_name": "direction of the designed unbalance at theta = 0"})
+        data["design_residual"] = var((dim, "design_order", "component"), arrays["design_residual"], {
+            "units": "N or N m (see component_units)", "long_name": "residual phasor the design predicts",
+            "description": "harmbal.design's predicted; 0 where cancelled (round-off)"})
+        data["design_cancelled"] = variable((dim, "design_order", "component"), arrays["design_cancelled"], {
+            "long_name": "targeted component cancelled by the design"})
+        data["design_targeted"] = variable(("design_order", "component"), np.array(
+            [[(k, n) in design.solver.targets for n in design.components] for k in design.orders]), {
+            "long_name": "component the [design] table asks to cancel"})
+        coords.update({
+            "element": variable(("element",), np.array(design.elements), {"long_name": "designed balancer element"}),
+            "design_order": variable(("design_order",), np.array(design.orders), {"long_name": "order designed for"}),
+            "component": variable(("component",), np.array(design.components)),
+            "component_units": variable(("component",), np.array(["N" if c.startswith("force") else "N m"
+                                                                  for c in design.components])),
+        })
     for key in plan.keys:
         key_attrs = {"long_name": f"scene key {key}", "kind": "linear" if key in plan.linear else "geometry"}
         if plan.units.get(key):
@@ -658,12 +741,18 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
     return dataset(data, coords, attrs)
 
 
+def _angle(values):
+    """np.angle for numpy and dask arrays alike (np.angle would compute a dask array)."""
+    return np.arctan2(values.imag, values.real)
+
+
 def _run(scene: Scene, values: dict, variants: _Variants, orders, peaks: bool, peak_samples: int, backend: str,
-         progress: Callable[[int, int], None] | None, phasors: bool, chunks: int | None, dim: str, attrs: dict):
+         progress: Callable[[int, int], None] | None, phasors: bool, chunks: int | None, dim: str, attrs: dict,
+         design: bool = False):
     kept = _orders(scene, orders)
     if chunks is not None and (isinstance(chunks, bool) or not isinstance(chunks, (int, np.integer)) or chunks < 1):
         raise ValueError(f"chunks must be a positive number of variants: {chunks!r}")
-    plan = _plan(scene, values, variants, backend, progress)
+    plan = _plan(scene, values, variants, backend, progress, design=design)
     speeds = Speeds(scene.speeds)
     options = {"orders": kept, "peak_samples": peak_samples if peaks else None,
                "w2": 1.0 if speeds.several else float(speeds.w2), "phasors": phasors}
@@ -702,7 +791,7 @@ def _as_scene(scene: Scene | str | os.PathLike) -> Scene:
 def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], *, mode: str = "grid",
           orders: Sequence[int] | None = None, peaks: bool = False, peak_samples: int = 360,
           backend: str = "scipy", progress: Callable[[int, int], None] | None = None, phasors: bool = True,
-          chunks: int | None = None):
+          chunks: int | None = None, design: bool = False):
     """Free forces and moments of many variants of a scene, vectorised.
 
     Parameters
@@ -746,6 +835,13 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
         memory can be reduced or written chunk by chunk (docs/sweeps.md).
         Needs the ``dask`` extra. The distinct geometries are still read and
         evaluated here, before returning.
+    design : bool
+        Also design the balancers of every variant as :func:`harmbal.design`
+        does with the scene's ``[design]`` table (least-squares objective;
+        the designed elements and orders must be the same in every variant),
+        and give the free force and moment of each variant with its designed
+        elements (:mod:`harmbal.balance.variants`). ``[design]`` keys (e.g.
+        ``design.counterweights[1].balance_factor``) can then be swept.
 
     Returns
     -------
@@ -759,7 +855,14 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
         ``peaks``, ``peak_force``/``peak_moment`` (variant,). Each key is a
         coordinate along ``variant`` (SI values). In grid mode
         ``ds.set_index(variant=list(parameters)).unstack("variant")`` gives one
-        dimension per key (attribute ``grid_shape``).
+        dimension per key (attribute ``grid_shape``). With ``design``:
+        ``design_unbalance`` [kg m] and ``design_unbalance_angle`` [rad]
+        (variant, element), ``design_residual`` (complex) and
+        ``design_cancelled`` (variant, design_order, component) as in
+        :func:`harmbal.design`'s Dataset, and ``residual_force``,
+        ``residual_moment`` (with their ``_rotating`` split and
+        ``_amplitude``) as ``force`` and ``moment`` but with the designed
+        elements: what :func:`harmbal.verify` of the designed scene checks.
 
     Raises
     ------
@@ -783,7 +886,7 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
     if mode == "grid":
         attrs["grid_shape"] = lengths
     return _run(scene, values, _Variants(tuple(lengths), mode), orders, peaks, peak_samples, backend, progress,
-                phasors, chunks, "variant", attrs)
+                phasors, chunks, "variant", attrs, design)
 
 
 def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Normal | Uniform | WeightClasses],
@@ -791,7 +894,7 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
                 peaks: bool = False, peak_samples: int = 360, percentiles: Sequence[float] = (5, 50, 95, 99),
                 force_limit: float | None = None, moment_limit: float | None = None, backend: str = "scipy",
                 progress: Callable[[int, int], None] | None = None, phasors: bool = True,
-                chunks: int | None = None):
+                chunks: int | None = None, design: bool = False):
     """Production scatter: the free forces and moments of ``n`` random variants.
 
     Parameters
@@ -808,8 +911,9 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
     seed : int or SeedSequence, optional
         Seed of :func:`numpy.random.default_rng`: the same seed gives
         bit-identical results.
-    orders, peaks, peak_samples, backend, progress, phasors, chunks
-        As in :func:`sweep` (with ``chunks``, the summary statistics are lazy too).
+    orders, peaks, peak_samples, backend, progress, phasors, chunks, design
+        As in :func:`sweep` (with ``chunks``, the summary statistics are lazy too;
+        with ``design``, they include the residual amplitudes after the design).
     percentiles : sequence of float
         Percentiles [%] of the order amplitudes (and peaks) to summarise.
     force_limit, moment_limit : float, optional
@@ -870,7 +974,7 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
              "samples": int(n), "seed": "none" if seed is None else str(seed),
              "tolerances": [f"{k}: {d!r}" for k, d in tolerances.items()]}
     ds = _run(scene, values, _Variants((int(n),) * len(values), "zip"), orders, peaks, peak_samples, backend,
-              progress, phasors, chunks, "sample", attrs)
+              progress, phasors, chunks, "sample", attrs, design)
     return _summarise(ds, percentiles, force_limit, moment_limit)
 
 
@@ -882,7 +986,8 @@ def _summarise(ds, percentiles, force_limit, moment_limit):
 
     q = np.asarray(percentiles, dtype=float)
     out = ds.assign_coords(percentile=("percentile", q, {"units": "%"}))
-    names = ["force_amplitude", "moment_amplitude"] + [v for v in ("peak_force", "peak_moment") if v in ds]
+    names = [v for v in ("force_amplitude", "moment_amplitude", "residual_force_amplitude", "residual_moment_amplitude",
+                         "peak_force", "peak_moment") if v in ds]
     for name in names:
         values = ds[name]
         units = values.attrs.get("units", "")

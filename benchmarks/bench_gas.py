@@ -11,10 +11,14 @@ revolution for the V8 at the default accuracy); with gas at least 720
 over the two revolutions of a four-stroke cycle. So two ratios are printed:
 against the scene without gas at its own sampling, and at the gas scene's
 sampling (what the gas itself adds: one trace per cylinder type, a shift per
-cylinder, the /torque view). A second table measures what the 720 samples
-per revolution buy: the gas torque's order phasors against 4× finer sampling,
-and the tail estimate harmbal reports for them. Prints Markdown tables;
-docs/performance.md records the figures and the machine.
+cylinder, the /torque view). With gas the inertia keeps a grid of its own
+(``inertia_samples``) and is interpolated onto the gas grid where a
+time-domain sum needs it. A second table measures what the 720 samples per
+revolution buy: the gas torque's order phasors against 4× finer sampling,
+and the tail estimate harmbal reports for them; a third, what the
+interpolation costs in accuracy: the inertia's time-domain loads of the gas
+scene against the inertia evaluated directly on the gas grid. Prints
+Markdown tables; docs/performance.md records the figures and the machine.
 """
 
 from __future__ import annotations
@@ -39,12 +43,13 @@ def main() -> None:
     from harmbal.model.gas import gas_loads
     import numpy as np
 
-    from harmbal.model.sampling import choose_samples
+    from harmbal.model.evaluate import evaluate
+    from harmbal.model.sampling import choose_samples, inertia_samples
     from harmbal.orders.spectrum import aliasing_estimate, phasors
 
     print(machine(args.repeat).replace("min of", "median of").replace("timeit repeats", "calls"))
-    print("| scene | samples/rev with gas | analyse with gas | gas_loads | without gas (own sampling) | ratio | "
-          "without gas (same sampling) | ratio |\n|---|---|---|---|---|---|---|---|")
+    print("| scene | samples/rev with gas (inertia) | analyse with gas | gas_loads | without gas (own sampling) | "
+          "ratio | without gas (same sampling) | ratio |\n|---|---|---|---|---|---|---|---|")
     for name in SCENES:
         scene = hb.load_scene(ENGINES / f"{name}.toml")
         n = choose_samples(scene)
@@ -54,7 +59,8 @@ def main() -> None:
         loads = median_seconds(lambda: gas_loads(scene, n), args.repeat)
         own = median_seconds(lambda: hb.analyse(inertia), args.repeat)
         at_n = median_seconds(lambda: hb.analyse(same), args.repeat)
-        print(f"| {name} | {n} | {gas * 1e3:.2f} ms | {loads * 1e3:.2f} ms | {own * 1e3:.2f} ms | {gas / own:.2f}× | "
+        print(f"| {name} | {n} ({inertia_samples(scene)}) | {gas * 1e3:.2f} ms | {loads * 1e3:.2f} ms | "
+              f"{own * 1e3:.2f} ms | {gas / own:.2f}× | "
               f"{at_n * 1e3:.2f} ms | {gas / at_n:.2f}× |")
 
     print("\n| scene | samples/rev | max order error of the gas torque vs 4× finer (/ largest order) | "
@@ -69,6 +75,24 @@ def main() -> None:
         tail = aliasing_estimate(np.abs(phasors(coarse.torque)), coarse.theta.size, count - 1).sum()
         largest = np.abs(reference[1:]).max()
         print(f"| {name} | {n} | {error / largest:.2g} | {tail / largest:.2g} |")
+
+    print("\n| scene | inertia samples/rev → gas grid | force error (/ force_scale) | moment error (/ moment_scale) | "
+          "mass torque error (/ its peak) |\n|---|---|---|---|---|")
+    for name in SCENES:
+        scene = hb.load_scene(ENGINES / f"{name}.toml")
+        n, w2 = choose_samples(scene), np.square(scene.speeds)[:, None, None]
+        tree = hb.analyse(scene)
+        time, torque = tree["time"].ds, tree["torque"].ds
+        inertia = scene.with_effects(scene.model.effects - {"gas"})
+        direct = evaluate(inertia, n)
+        force, moment = (w2 * np.tile(values, 2) for values in direct.total())
+        moment[:, 0] -= scene.sense * torque.gas_torque.values.sum(axis=0)  # the gas moment: −sense·T
+        drive = w2[:, 0] * np.tile(direct.drive_torque.sum(axis=0), 2)
+        errors = [np.abs(time[key].values - want).max() / float(time[f"{key}_scale"].max())
+                  for key, want in (("force", force), ("moment", moment))]
+        errors.append(np.abs(torque.mass_torque.values - drive).max() / np.abs(drive).max())
+        print(f"| {name} | {time.attrs['inertia_samples_per_rev']} → {n} | "
+              + " | ".join(f"{e:.1g}" for e in errors) + " |")
 
 
 if __name__ == "__main__":

@@ -48,11 +48,11 @@ _EXPORTS = {
     "unbalance_range": "balance.counterweights",
     "fastener_load": "balance.counterweights",
     "clearance": "model.clearance",
-    "sweep": "views.sweep",
-    "monte_carlo": "views.sweep",
-    "Normal": "views.sweep",
-    "Uniform": "views.sweep",
-    "WeightClasses": "views.sweep",
+    "sweep": "studies.sweep",
+    "monte_carlo": "studies.sweep",
+    "Normal": "studies.sweep",
+    "Uniform": "studies.sweep",
+    "WeightClasses": "studies.sweep",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -300,7 +300,7 @@ def _order_table_without_datasets(scene, backend: str) -> str:
 
 def _sweep(args) -> None:
     from .scene import SceneError
-    from .views.sweep import monte_carlo, sweep
+    from .studies.sweep import monte_carlo, sweep
 
     if args.output is not None:
         _check_output(args.output, (".nc", ".zarr"), "the sweep is written as a netCDF archive (.nc) or a Zarr store "
@@ -440,7 +440,7 @@ def _sweep_values(key: str, text: str) -> list:
     import numpy as np
 
     from .scene.units import QuantityError
-    from .views.sweep import quantity_value
+    from .studies.sweep import quantity_value
 
     parts = text.split(":")
     if len(parts) == 1:
@@ -473,7 +473,7 @@ def _sweep_set(text: str) -> tuple[str, list]:
 
 
 def _tolerance(text: str):
-    from .views.sweep import Normal, Uniform, WeightClasses
+    from .studies.sweep import Normal, Uniform, WeightClasses
 
     key, sep, spec = text.partition("=")
     kind, _, rest = spec.partition(":")

@@ -208,7 +208,7 @@ def test_cli_report_bad_css_exits_2_and_writes_nothing(tmp_path, capsys, content
 
 def test_a_speed_sweep_gets_campbell_maps_whose_colours_are_its_order_amplitudes():
     from harmbal.reporting.sweep_plots import campbell_figure
-    from harmbal.views.sweep import order_amplitude
+    from harmbal.studies.sweep import order_amplitude
 
     scene = hb.load_scene(ENGINES / "v-twin-90.toml")
     swept = hb.analyse(scene.with_speeds(np.linspace(200.0, 900.0, 8)))

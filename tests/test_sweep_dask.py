@@ -17,7 +17,7 @@ import harmbal as hb
 from harmbal.cli import main
 from harmbal.io.archive import open_archive, save, save_and_compute
 from harmbal.labelled import tree
-from harmbal.views import sweep as sw
+from harmbal.studies import sweep as sw
 
 dask = pytest.importorskip("dask")
 

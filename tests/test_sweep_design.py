@@ -411,7 +411,7 @@ def test_blocks_of_variants_give_the_whole_to_round_off():
     # What chunking relies on: any block of variants, evaluated from the plan alone, gives those variants'
     # results. BLAS picks its kernel by the block's shape, so blocks agree with the whole to round-off, and
     # equal blocks bit for bit.
-    from harmbal.views import sweep as sw
+    from harmbal.studies import sweep as sw
 
     scene = hb.load_scene(ENGINES / "v-twin-90.toml")
     values = {"geometry.rod_length": [0.12, 0.13, 0.14], "piston.mass": list(np.linspace(0.36, 0.44, 11)),
@@ -431,7 +431,7 @@ def test_blocks_of_variants_give_the_whole_to_round_off():
 
 
 def test_amplitudes_only_equal_the_full_sweep(monkeypatch):
-    from harmbal.views import sweep as sw
+    from harmbal.studies import sweep as sw
 
     monkeypatch.setattr(sw, "_BLOCK", 7)  # several blocks, the last one short
     keys = {"geometry.rod_length": [0.12, 0.14], "piston.mass": [0.38, 0.40, 0.42], "rod.mass": [0.36, 0.38, 0.4]}

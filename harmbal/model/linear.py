@@ -7,7 +7,7 @@ the reciprocating mass is m_piston + m_rod·a/l, the rotating one m_rod·(1 − 
 and the rigid rod's extra couple (I − m_rod·a·(l − a))·ϑ̈. So one evaluation of
 the kinematics per geometry gives the loads of every variant that differs only
 in those masses: Σ_j value_j × (load per unit of property j). A design sweep
-(:mod:`harmbal.views.sweep`) uses this to evaluate each distinct geometry once.
+(:mod:`harmbal.studies.sweep`) uses this to evaluate each distinct geometry once.
 """
 
 from __future__ import annotations

@@ -176,7 +176,7 @@ def campbell_figure(orders: xr.Dataset, *, name: str = "force") -> Figure:
     from matplotlib.colors import LogNorm
     from matplotlib.figure import Figure
 
-    from ..views.sweep import order_amplitude
+    from ..studies.sweep import order_amplitude
 
     if name not in _UNITS:
         raise ValueError(f"name must be 'force' or 'moment', not {name!r}")

@@ -76,6 +76,21 @@ def _designs(raw, count, seed):
     return design_variants(dbasis, np.array(slots)), variants, scales
 
 
+def _mass_variants(raw, scene, count, inertia=False):
+    """``count`` scenes of ``raw`` with the shared piston and rod masses (and rod inertia) scaled by
+    random factors in [0.3, 3)."""
+    rng = np.random.default_rng(1)
+    variants = []
+    for _ in range(count):
+        v = copy.deepcopy(raw)
+        v["piston"]["mass"] = scene.cylinders[0].piston.mass * rng.uniform(0.3, 3)
+        v["rod"]["mass"] = scene.cylinders[0].rod.mass * rng.uniform(0.3, 3)
+        if inertia:
+            v["rod"]["inertia"] = scene.cylinders[0].rod.inertia * rng.uniform(0.3, 3)
+        variants.append(hb.load_scene(v))
+    return variants
+
+
 def _assert_equals_design(out, i, scene, huge=False):
     """Variant i of design_variants against hb.design and order_phasors of its
     designed scene. With ``huge``, the tolerances grow with the largest designed
@@ -154,14 +169,7 @@ def test_a_residual_at_the_balanced_tolerance_is_judged_by_the_variants_own_scal
     raw["design"] = {"orders": [2], "cancel": ["roll"], "counterweights": [{"planes": ["-120 mm", "120 mm"]}]}
     scene = hb.load_scene(copy.deepcopy(raw))
     basis = linear_phasors(scene)
-    rng = np.random.default_rng(1)
-    variants = []
-    for _ in range(12):
-        v = copy.deepcopy(raw)
-        v["piston"]["mass"] = scene.cylinders[0].piston.mass * rng.uniform(0.3, 3)
-        v["rod"]["mass"] = scene.cylinders[0].rod.mass * rng.uniform(0.3, 3)
-        v["rod"]["inertia"] = scene.cylinders[0].rod.inertia * rng.uniform(0.3, 3)
-        variants.append(hb.load_scene(v))
+    variants = _mass_variants(raw, scene, 12, inertia=True)
     slots = np.array([slot_values(v)[1] for v in variants])
     dbasis = design_basis(scene, basis)
     out = design_variants(dbasis, slots)
@@ -183,13 +191,7 @@ def test_unbalances_too_small_to_write_are_left_out_of_the_residual_phasors():
         "label": "pair", "order": 2, "axial_position": "0 mm", "heights": ["-100 mm", "-100 mm"],
         "lateral": ["50 mm", "-50 mm"]}]}
     scene = hb.load_scene(copy.deepcopy(raw))
-    rng = np.random.default_rng(1)
-    variants = []
-    for _ in range(8):
-        v = copy.deepcopy(raw)
-        v["piston"]["mass"] = scene.cylinders[0].piston.mass * rng.uniform(0.3, 3)
-        v["rod"]["mass"] = scene.cylinders[0].rod.mass * rng.uniform(0.3, 3)
-        variants.append(hb.load_scene(v))
+    variants = _mass_variants(raw, scene, 8)
     out = design_variants(design_basis(scene, linear_phasors(scene)), np.array([slot_values(v)[1] for v in variants]))
     written = [len(_assert_equals_design(out, i, v).elements) for i, v in enumerate(variants)]
     assert 0 in written and 2 in written

@@ -311,8 +311,10 @@ def _sweep(args) -> None:
         # HDF5 files are locked by the process that opens them: dask's workers cannot add chunks to a netCDF file.
         raise _BadInput(f"{args.output}: --scheduler {args.scheduler}: a netCDF archive is written from one process; "
                         "write a Zarr store (-o OUT.zarr) with several processes, or use --scheduler threads")
-    if args.chunks is not None or (args.output is not None and args.output.suffix == ".zarr"):
-        _check_dask(args.output is not None and args.output.suffix == ".zarr")
+    if args.chunks is not None:
+        _require("dask", "--chunks")
+    if args.output is not None and args.output.suffix == ".zarr":
+        _require("zarr", "-o *.zarr")
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     if args.monte_carlo is None and args.tol:
@@ -384,13 +386,12 @@ def _sweep(args) -> None:
         print(f"\nwrote {args.plot}")
 
 
-def _check_dask(zarr: bool) -> None:
+def _require(module: str, option: str) -> None:
+    """Refuse ``option`` up front (before any work) if the optional ``module`` is missing."""
     import importlib.util
 
-    missing = [m for m in ("dask", "zarr" if zarr else "dask") if importlib.util.find_spec(m) is None]
-    if missing:
-        raise _BadInput(f"{'--chunks' if 'dask' in missing else '-o *.zarr'} needs {', '.join(sorted(set(missing)))}: "
-                        "pip install \"harmbal[dask]\"")
+    if importlib.util.find_spec(module) is None:
+        raise _BadInput(f"{option} needs {module}: pip install \"harmbal[dask]\"")
 
 
 @contextmanager

@@ -25,14 +25,11 @@ def _key_value(ds, key: str, i: int) -> str:
     return f"{key} = {float(ds[key].values[i]):.6g}" + (f" {units}" if units else "")
 
 
-#: Variables of a sweep the table does not read.
-_PHASORS = ("force", "moment", "force_rotating", "moment_rotating")
-
-
 def table_inputs(ds):
     """What :func:`sweep_table` reads from ``ds``: everything but the phasors
-    (a chunked sweep computes this much, not the phasors)."""
-    return ds.drop_vars([n for n in _PHASORS if n in ds])
+    (the variables along ``axis`` or ``rotation``, with or without the design),
+    so that a chunked sweep computes this much into memory, not the phasors."""
+    return ds.drop_vars([n for n, v in ds.data_vars.items() if {"axis", "rotation"} & set(v.dims)])
 
 
 def _all_cancelled(ds) -> np.ndarray:

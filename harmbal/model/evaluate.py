@@ -59,6 +59,8 @@ class UnitLoads:
       parts [N m], the torque on the crank that keeps ω constant (the mass
       torque), whether or not ``mass_torque`` puts its reaction on the block;
       ``kinetic_energy`` (cylinder, N) [J] its kinetic energy.
+    * ``harmonic_orders``: the orders of the crankshaft's single-harmonic
+      loads (static unbalances: 1, balance shafts: their |ratio|).
     """
 
     theta: np.ndarray
@@ -83,6 +85,7 @@ class UnitLoads:
     decay_rates: np.ndarray
     drive_torque: np.ndarray
     kinetic_energy: np.ndarray
+    harmonic_orders: tuple[int, ...] = ()
 
     @property
     def samples_per_rev(self) -> int:
@@ -357,6 +360,9 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
     arm = np.hypot(arm, np.hypot(ref[1], ref[2]))
     crank_arm = max([0.0] + [float(np.hypot(u.x - ref[0], np.hypot(ref[1], ref[2])))
                              for u in scene.crankshaft_unbalances])
+    harmonic = [1] if "rotating" in effects and scene.crankshaft_unbalances else []
+    if "balancers" in effects:
+        harmonic += [abs(shaft.ratio) for shaft in scene.shafts]
     return UnitLoads(
         theta=theta, reference_point=ref, sense=sense, max_order=scene.sampling.max_order,
         cylinder_type=kind, type_planar=type_planar,
@@ -368,7 +374,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
         crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
         lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
-        kinetic_energy=kinetic_energy,
+        kinetic_energy=kinetic_energy, harmonic_orders=tuple(harmonic),
     )
 
 

@@ -9,7 +9,7 @@ from ..labelled import AXES, CONVENTIONS, Speeds, dataset
 from ..model.evaluate import UnitLoads, evaluate, moment_about
 from ..model.gas import GasLoads, gas_loads
 from ..model.sampling import choose_samples, inertia_samples, simulates_gas
-from ..orders.spectrum import aliasing_estimate, phasors
+from ..orders.spectrum import ROUND_OFF, aliasing_estimate, phasors
 from ..scene import EFFECTS, Scene
 
 
@@ -82,6 +82,12 @@ def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None
     the total's aliasing whatever cancels; each fit decays no faster than the
     body's geometry allows (``unit.decay_rates``). ``moments``:
     :func:`body_moments` if already computed.
+
+    The crankshaft's static unbalances and balance shafts are single
+    harmonics: sampled with N > order + ``max_order`` (as the scene's sampling
+    ensures) they fold onto no order kept, so their lines in the tail band (a
+    20× shaft at 48 samples) are left out of the crankshaft's fit, though not
+    out of its round-off floor.
     """
     moment_cylinder, moment_crankshaft = moments if moments is not None else body_moments(unit)
     n = unit.samples_per_rev
@@ -89,9 +95,26 @@ def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None
     # One batched FFT of every body's force and moment: (body, force/moment × axis, angle).
     bodies = np.concatenate([np.concatenate([unit.force_cylinder, moment_cylinder], axis=1),
                              np.concatenate([crank_force, moment_crankshaft])[None]])
+    magnitudes = np.abs(phasors(bodies, backend))
     slowest = unit.decay_rates[:, None]
-    tail = aliasing_estimate(np.abs(phasors(bodies, backend)), n, unit.max_order, slowest).sum(axis=0)
+    tails = aliasing_estimate(magnitudes, n, unit.max_order, slowest)
+    lines = _exact_lines(unit.harmonic_orders, n, unit.max_order)
+    if lines:
+        crank = magnitudes[-1].copy()
+        crank[:, lines] = 0.0
+        floor = ROUND_OFF * np.finfo(float).eps * magnitudes[-1].max(axis=-1)
+        tails[-1] = np.maximum(aliasing_estimate(crank, n, unit.max_order, slowest[-1]), floor)
+    tail = tails.sum(axis=0)
     return tail[:3], tail[3:]
+
+
+def _exact_lines(orders: tuple, samples: int, max_order: int) -> list[int]:
+    """The bins above ``max_order`` of an N-sample spectrum where the single
+    harmonics of ``orders`` stand (none if one of them folds onto an order
+    kept, N ≤ order + max_order: then the fit must see it)."""
+    if any(k + max_order >= samples for k in orders):
+        return []
+    return sorted({k if 2 * k <= samples else samples - k for k in orders if k > max_order})
 
 
 def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy") -> np.ndarray:

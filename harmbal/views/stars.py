@@ -95,13 +95,8 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
     cyl = scene.cylinders
     fire = cylinder_firing(cyl, scene.cycle, scene.firing_order)
 
-    data = {
-        "star_angle": (("order", "cylinder"), angles, {"units": "rad", "long_name": "crank star arm k·φ_i"}),
-        "star_regular": ("order", regular, {"long_name": "crank star arms equally spaced with equal multiplicity"}),
-        "star_resultant": ("order", resultant, {"units": "1", "long_name": "sum of the star's unit arms"}),
-        "bank_star_regular": (("order", "bank"), bank_regular, {"long_name": "crank star of one bank is regular"}),
-        "bank_star_resultant": (("order", "bank"), bank_resultant,
-                                {"units": "1", "long_name": "sum of the unit arms of one bank's star"}),
+    # Alone, the free vectors of the order domain; in a tree they are /orders' (FREE_VECTORS).
+    free = {} if totals is not None else {
         "force": var(("order", "axis"), cleaned(force, force_scale).T,
                      {"units": "N", "long_name": "free force phasor"}),
         "moment": var(("order", "axis"), cleaned(moment, moment_scale).T,
@@ -110,6 +105,15 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
                               {"units": "N", "long_name": "co- and counter-rotating free force phasors"}),
         "moment_rotating": var(("order", "rotation"), cleaned(moment_rot, moment_scale),
                                {"units": "N m", "long_name": "co- and counter-rotating free moment phasors"}),
+    }
+    data = {
+        "star_angle": (("order", "cylinder"), angles, {"units": "rad", "long_name": "crank star arm k·φ_i"}),
+        "star_regular": ("order", regular, {"long_name": "crank star arms equally spaced with equal multiplicity"}),
+        "star_resultant": ("order", resultant, {"units": "1", "long_name": "sum of the star's unit arms"}),
+        "bank_star_regular": (("order", "bank"), bank_regular, {"long_name": "crank star of one bank is regular"}),
+        "bank_star_resultant": (("order", "bank"), bank_resultant,
+                                {"units": "1", "long_name": "sum of the unit arms of one bank's star"}),
+        **free,
         "force_cylinder": var(("cylinder", "order", "rotation"), rotating(p.force_cylinder),
                               {"units": "N", "long_name": "one cylinder's rotating force phasors"}),
         "moment_cylinder": var(("cylinder", "order", "rotation"), rotating(p.moment_cylinder),
@@ -151,8 +155,6 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
         "firing_even": "yes" if fire.even else "no",
     })
     if totals is not None:
-        for name in FREE_VECTORS:
-            del data[name]
         del coords["axis"]  # only the free vectors have it
     return dataset(data, coords, attrs)
 

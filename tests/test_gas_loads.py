@@ -119,7 +119,7 @@ def test_trigonometric_interpolation_is_exact_for_a_band_limited_signal(samples)
         return value + (0.25 * np.cos(samples // 2 * theta) if samples % 2 == 0 else 0.0)
 
     coarse = np.stack([signal(samples), -2 * signal(samples)])
-    for fine in (samples, 720, 725):
+    for fine in (samples, 720, 725, 4096):  # 4096: beyond BASIS_LIMIT, by FFT
         want = np.stack([signal(fine), -2 * signal(fine)])
         np.testing.assert_allclose(interpolate(coarse, fine), want, rtol=0, atol=1e-13)
     with pytest.raises(ValueError, match="not a finer grid"):

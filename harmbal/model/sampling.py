@@ -3,6 +3,7 @@ samples per revolution that meet the scene's accuracy target."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -114,13 +115,36 @@ def interpolate(values: np.ndarray, samples: int) -> np.ndarray:
     aliases on the orders below N/2 (:func:`inertia_samples` chooses N so
     that they are below the accuracy target). numpy's FFT: a change of grid
     within the model, not an order analysis, whose FFT backend the caller
-    chooses.
+    chooses. The interpolant is linear in the samples: onto a small grid
+    (N × ``samples`` ≤ :data:`BASIS_LIMIT`, the inertia's 48 samples onto the
+    gas grid's 720) it is one product with the interpolants of the unit
+    samples, a third of the cost of the two FFTs for the few rows interpolated.
     """
     n = values.shape[-1]
     if samples < n:
         raise ValueError(f"interpolate onto {samples} points from {n} samples: not a finer grid")
     if samples == n:
         return values
+    if n * samples <= BASIS_LIMIT:
+        return values @ _interpolation_basis(n, samples)
+    return _interpolate_fft(values, samples)
+
+
+#: Largest N × samples for which :func:`interpolate` keeps its basis (1 MB; four are cached).
+BASIS_LIMIT = 1 << 17
+
+
+@functools.lru_cache(maxsize=4)
+def _interpolation_basis(n: int, samples: int) -> np.ndarray:
+    """Row j: the interpolant of the j-th unit sample of N on ``samples`` points (read-only)."""
+    basis = _interpolate_fft(np.eye(n), samples)
+    basis.flags.writeable = False
+    return basis
+
+
+def _interpolate_fft(values: np.ndarray, samples: int) -> np.ndarray:
+    """:func:`interpolate` by zero-padding the spectrum of the N samples."""
+    n = values.shape[-1]
     spectrum = np.fft.rfft(values, axis=-1) * (samples / n)
     if n % 2 == 0:
         spectrum[..., -1] /= 2  # the order N/2 is one cosine on N samples, two mirror images on the finer grid

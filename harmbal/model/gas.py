@@ -16,6 +16,7 @@ half orders.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,10 +69,23 @@ class GasLoads:
         (about any point: it is a pure couple); of ``torque`` (cylinder, …)
         instead of ``self.torque`` if given: the moment is linear in the
         torques, so their order phasors give its phasors."""
-        torque = self.torque if torque is None else torque
-        moment = np.zeros((3, torque.shape[-1]), dtype=torque.dtype)
-        moment[0] = -self.sense * torque.sum(axis=0)
+        total = self.total_torque if torque is None else torque.sum(axis=0)
+        moment = np.zeros((3, total.shape[-1]), dtype=total.dtype)
+        moment[0] = -self.sense * total
         return moment
+
+    @functools.cached_property
+    def total_torque(self) -> np.ndarray:
+        """Σ ``torque`` over the cylinders (M,) [N m]: the gas torque on the crankshaft."""
+        return self.torque.sum(axis=0)
+
+    @functools.cached_property
+    def templates(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cylinders evaluated (their own template) and each cylinder's
+        position among them: ``torque[rows][position]`` is ``torque`` up to
+        each cylinder's ``shift``."""
+        rows = np.flatnonzero(self.template == np.arange(self.template.size))
+        return rows, np.searchsorted(rows, self.template)
 
     def on_cycle(self, values: np.ndarray) -> np.ndarray:
         """Samples of one revolution (last axis; as many as the cycle's grid
@@ -79,12 +93,13 @@ class GasLoads:
         :func:`harmbal.model.sampling.inertia_samples`) on the cycle's grid:
         interpolated trigonometrically (:func:`harmbal.model.sampling.interpolate`)
         and repeated each revolution."""
-        return np.tile(interpolate(values, self.theta.size // self.revolutions), self.revolutions)
+        return np.concatenate([interpolate(values, self.theta.size // self.revolutions)] * self.revolutions, axis=-1)
 
-    @property
+    @functools.cached_property
     def moment_scale(self) -> float:
-        """Sum of the cylinders' peak gas torques [N m]."""
-        return float(np.abs(self.torque).max(axis=-1, initial=0.0).sum())
+        """Sum of the cylinders' peak gas torques [N m] (a rolled cylinder's is its template's)."""
+        rows, position = self.templates
+        return float(np.abs(self.torque[rows]).max(axis=-1, initial=0.0)[position].sum())
 
 
 def grid_steps(delta: float, samples_per_rev: int) -> int | None:
@@ -116,45 +131,80 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     m = samples_per_rev * revolutions
     theta = 2 * np.pi * np.arange(m) / samples_per_rev
     firing_angle = np.asarray(cylinder_firing(cyls, scene.cycle, scene.firing_order).angle, dtype=float)
+    template, shift = _templates(cyls, firing_angle.tolist(), samples_per_rev, m)
     loads = np.zeros((4, len(cyls), m))  # pressure, force, torque, volume
     swept = np.zeros(len(cyls))
-    template, shift = np.arange(len(cyls)), np.zeros(len(cyls), dtype=int)
     series = scene.model.series_harmonics if scene.model.piston == "series" else None
-    # Cylinders with the same trace and slider-crank have the same loads, shifted to their firing TDC: each
-    # such group is evaluated once and the others rolled, when their firing TDCs are whole samples apart.
+    for i, c in enumerate(cyls):
+        k, first = shift[i], template[i]
+        if first != i:
+            loads[:, i, k:] = loads[:, first, : m - k]  # np.roll by k, without its copies
+            loads[:, i, :k] = loads[:, first, m - k:]
+            swept[i] = swept[first]
+        elif c.gas is not None:
+            swept[i] = _evaluate(loads[:, i], c, scene.cycle, series, theta, samples_per_rev, firing_angle[i])
+    pressure, force, torque, volume = loads
+    return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
+                    torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept,
+                    template=np.asarray(template), shift=np.asarray(shift))
+
+
+def _templates(cyls, firing_angle: list[float], samples_per_rev: int, m: int) -> tuple[list[int], list[int]]:
+    """Each cylinder's template and shift in samples (:class:`GasLoads`).
+
+    Cylinders with the same trace and slider-crank have the same loads,
+    shifted to their firing TDC: each such group is evaluated once and the
+    others rolled, when their firing TDCs are whole samples apart. Python
+    lists and floats: a handful of cylinders, for which numpy's calls cost
+    more than the work."""
+    template, shift = list(range(len(cyls))), [0] * len(cyls)
     evaluated: list[int] = []
     for i, c in enumerate(cyls):
-        gas = c.gas
-        if gas is None:
+        if c.gas is None:
             continue
         # Compared, not hashed: a measured trace's table hashes anew at every lookup, which costs more than the
         # comparison (none at all for the same object, the usual case).
         first = next((j for j in evaluated if _same_loads(cyls[j], c)), None)
         steps = None if first is None else grid_steps(firing_angle[i] - firing_angle[first], samples_per_rev)
         if steps is not None:
-            k = steps % m
-            template[i], shift[i] = first, k
-            loads[:, i, k:] = loads[:, first, : m - k]  # np.roll by k, without its copies
-            loads[:, i, :k] = loads[:, first, m - k:]
-            swept[i] = swept[first]
-            continue
-        if first is None:
+            template[i], shift[i] = first, steps % m
+        elif first is None:
             evaluated.append(i)
-        # The slider-crank repeats every revolution: evaluated over one.
-        kin = slider_crank(theta[:samples_per_rev] + c.throw - c.bank, c.crank_radius, c.rod_length, c.offset,
-                           series)
-        loads[0, i] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, scene.cycle, theta - firing_angle[i])
-        loads[1, i] = (loads[0, i] - gas.crankcase_pressure) * gas.piston_area
-        loads[2, i] = -loads[1, i] * np.tile(kin.db, revolutions)
-        travel = top_dead_centre_travel(c.crank_radius, c.rod_length, c.offset) - kin.b
-        loads[3, i] = gas.piston_area * np.tile(travel, revolutions)
-        swept[i] = gas.piston_area * stroke(c.crank_radius, c.rod_length, c.offset)
-    pressure, force, torque, volume = loads
-    return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
-                    torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept, template=template,
-                    shift=shift)
+    return template, shift
+
+
+def _evaluate(loads: np.ndarray, c, cycle: int, series: int | None, theta: np.ndarray, samples_per_rev: int,
+              firing_angle: float) -> float:
+    """Fill ``loads`` (pressure, force, torque, volume; angle) of cylinder
+    ``c`` over the cycle ``theta``; return its swept volume."""
+    gas, revolutions = c.gas, theta.size // samples_per_rev
+    # The slider-crank repeats every revolution: evaluated over one.
+    travel, dtravel = _piston_travel(theta[:samples_per_rev] + c.throw - c.bank, c.crank_radius, c.rod_length,
+                                     c.offset, series)
+    loads[0] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, cycle, theta - firing_angle)
+    loads[1] = (loads[0] - gas.crankcase_pressure) * gas.piston_area
+    # Each revolution's rows times the one revolution of the slider-crank (no tiled copies).
+    force, torque, volume = (row.reshape(revolutions, samples_per_rev) for row in loads[1:])
+    np.multiply(force, -dtravel, out=torque)
+    volume[:] = gas.piston_area * (top_dead_centre_travel(c.crank_radius, c.rod_length, c.offset) - travel)
+    return gas.piston_area * stroke(c.crank_radius, c.rod_length, c.offset)
 
 
 def _same_loads(a, b) -> bool:
     """Whether cylinders ``a`` and ``b`` have the same gas table and slider-crank."""
     return (a.crank_radius, a.rod_length, a.offset) == (b.crank_radius, b.rod_length, b.offset) and a.gas == b.gas
+
+
+def _piston_travel(psi: np.ndarray, r: float, l: float, e: float, series: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Piston-pin travel c_B and dc_B/dψ, the same values as
+    :func:`~harmbal.model.kinematics.slider_crank`'s ``b`` and ``db``: of the
+    exact closure c_B = r cos ψ + √(l² − g²), g = e − r sin ψ, computed here
+    without the second derivatives and the rod's angle, which cost three times
+    as much on the gas grid; of the series model through ``slider_crank``."""
+    if series is not None:
+        kin = slider_crank(psi, r, l, e, series)
+        return kin.b, kin.db
+    cos, sin = r * np.cos(psi), r * np.sin(psi)
+    g = e - sin
+    root = np.sqrt(l * l - g * g)
+    return cos + root, -sin + g * cos / root

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .._version import __version__
@@ -132,14 +134,21 @@ def gas_phasors(gas: GasLoads, max_order: int, backend: str = "scipy") -> tuple[
     times e^{−2πiks/M} (the shift theorem, exact for a roll) and the same
     magnitudes, hence the same tail estimate.
     """
-    rows = np.flatnonzero(gas.template == np.arange(gas.template.size))  # a template is its own
-    position = np.searchsorted(rows, gas.template)
+    rows, position = gas.templates
     spectrum = phasors(gas.torque[rows], backend)
-    count = gas.revolutions * max_order + 1
-    k = np.arange(count)
-    orders = spectrum[position, :count] * np.exp(-2j * np.pi * np.multiply.outer(gas.shift, k) / gas.theta.size)
-    tail = aliasing_estimate(np.abs(spectrum), gas.theta.size, count - 1) @ np.bincount(position)
+    m, count = gas.theta.size, gas.revolutions * max_order + 1
+    # e^{−2πiks/M} read from the M-th roots of unity: the same to round-off as the exponential, at a third of its cost.
+    orders = spectrum[position, :count] * _roots_of_unity(m)[np.multiply.outer(gas.shift, np.arange(count)) % m]
+    tail = aliasing_estimate(np.abs(spectrum), m, count - 1) @ np.bincount(position)
     return orders, np.array([tail, 0.0, 0.0])
+
+
+@functools.lru_cache(maxsize=4)
+def _roots_of_unity(m: int) -> np.ndarray:
+    """e^{−2πij/M}, j = 0 … M − 1 (read-only)."""
+    roots = np.exp(-2j * np.pi * np.arange(m) / m)
+    roots.flags.writeable = False
+    return roots
 
 
 def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None,

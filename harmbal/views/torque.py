@@ -113,7 +113,7 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
             "units": "N m", "long_name": "torque the moving parts take from the crank at constant speed, d(KE)/dθ·ω²"}),
         "torque": speeds.variable(("angle",), -mass_torque, {
             "units": "N m", "long_name": "torque delivered by the crank at constant speed (gas − mass torque)"},
-            constant=gas.torque.sum(axis=0)),
+            constant=gas.total_torque),
         "gas_torque_order": (("cylinder", "order"), gas_spectrum,
                              {"units": "N m", "long_name": "order phasor of one cylinder's gas torque",
                               "description": phasor}),

@@ -11,7 +11,9 @@ revolution for the V8 at the default accuracy); with gas at least 720
 over the two revolutions of a four-stroke cycle. So two ratios are printed:
 against the scene without gas at its own sampling, and at the gas scene's
 sampling (what the gas itself adds: one trace per cylinder type, a shift per
-cylinder, the /torque view). With gas the inertia keeps a grid of its own
+cylinder, the /torque view). The four timings of a scene are taken in turn,
+call by call, so that a shared machine's changing load does not skew the
+ratios. With gas the inertia keeps a grid of its own
 (``inertia_samples``) and is interpolated onto the gas grid where a
 time-domain sum needs it. A second table measures what the 720 samples per
 revolution buy: the gas torque's order phasors against 4× finer sampling,
@@ -27,7 +29,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from timing import machine, median_seconds
+from timing import interleaved_medians, machine
 
 ROOT = Path(__file__).resolve().parent.parent
 ENGINES = ROOT / "datasets" / "engines"
@@ -55,10 +57,9 @@ def main() -> None:
         n = choose_samples(scene)
         inertia = scene.with_effects(scene.model.effects - {"gas"})
         same = dataclasses.replace(inertia, sampling=dataclasses.replace(inertia.sampling, samples_per_rev=n))
-        gas = median_seconds(lambda: hb.analyse(scene), args.repeat)
-        loads = median_seconds(lambda: gas_loads(scene, n), args.repeat)
-        own = median_seconds(lambda: hb.analyse(inertia), args.repeat)
-        at_n = median_seconds(lambda: hb.analyse(same), args.repeat)
+        gas, loads, own, at_n = interleaved_medians(
+            [lambda: hb.analyse(scene), lambda: gas_loads(scene, n), lambda: hb.analyse(inertia),
+             lambda: hb.analyse(same)], args.repeat)
         print(f"| {name} | {n} ({inertia_samples(scene)}) | {gas * 1e3:.2f} ms | {loads * 1e3:.2f} ms | "
               f"{own * 1e3:.2f} ms | {gas / own:.2f}× | "
               f"{at_n * 1e3:.2f} ms | {gas / at_n:.2f}× |")

@@ -35,6 +35,21 @@ def median_seconds(function, repeat: int) -> float:
     return statistics.median(_timed_calls(function, repeat))
 
 
+def interleaved_medians(functions, repeat: int) -> list[float]:
+    """Median seconds per call of each of ``functions``, their calls taken in
+    turn (one of each, ``repeat`` times) after one warm-up call each, so that
+    the shared machine's changing load falls on all of them alike: for ratios."""
+    for function in functions:
+        function()
+    samples = [[] for _ in functions]
+    for _ in range(repeat):
+        for function, times in zip(functions, samples):
+            start = time.perf_counter()
+            function()
+            times.append(time.perf_counter() - start)
+    return [statistics.median(times) for times in samples]
+
+
 def best_seconds(function, repeat: int) -> float:
     """Fastest of ``repeat`` timed calls, after one warm-up call (for long
     calls, where timeit's loop would take too long)."""

@@ -51,7 +51,9 @@ class _SpeedScaled:
     def __init__(self, w2: np.ndarray, unit: np.ndarray, constant: np.ndarray | None = None):
         self.w2 = np.asarray(w2, dtype=float)
         self.unit = np.asarray(unit)
-        self.constant = None if constant is None else np.broadcast_to(constant, self.unit.shape)
+        if constant is not None and np.shape(constant) != self.unit.shape:
+            constant = np.broadcast_to(constant, self.unit.shape)
+        self.constant = constant
         self.shape = self.w2.shape + self.unit.shape
         self.dtype = np.result_type(self.w2, self.unit, *(() if constant is None else (self.constant,)))
 

@@ -32,7 +32,7 @@ class AccuracyWarning(UserWarning):
     """The requested accuracy needs more samples than harmbal will choose."""
 
 
-def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
+def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None, *, gas: bool | None = None) -> int:
     """Samples per revolution: the scene's fixed count, or the smallest count
     whose aliasing error meets the scene's target accuracy.
 
@@ -43,8 +43,9 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
     estimate in :func:`harmbal.order_spectrum` covers the orders of interest,
     and above |n| + K for a balancer element turning at n× (a single harmonic
     that would otherwise alias onto an order kept). With gas, at least
-    :data:`GAS_SAMPLES_PER_REV`. ``decay_rates``: :func:`body_decay_rates`
-    if already computed.
+    :data:`GAS_SAMPLES_PER_REV` (``gas``: whether that minimum applies,
+    default whether the scene simulates gas). ``decay_rates``:
+    :func:`body_decay_rates` if already computed.
     """
     sampling = scene.sampling
     if sampling.samples_per_rev is not None:
@@ -66,7 +67,9 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None) -> int:
                           f"λ close to 1 or a linkage close to its toggle position); using {8 * math.ceil(n / 8)}, the "
                           "results may be less accurate than asked: compare with a larger sampling.samples_per_rev",
                           AccuracyWarning, stacklevel=2)
-    if simulates_gas(scene):
+    if gas is None:
+        gas = simulates_gas(scene)
+    if gas:
         n = max(n, GAS_SAMPLES_PER_REV)
     return 8 * math.ceil(n / 8)
 
@@ -93,7 +96,7 @@ def inertia_samples(scene: Scene, decay_rates: np.ndarray | None = None, samples
     n = choose_samples(scene, rates) if samples is None else samples
     if not simulates_gas(scene) or scene.sampling.samples_per_rev is not None:
         return n
-    own = choose_samples(scene.with_effects(scene.model.effects - {"gas"}), rates)
+    own = choose_samples(scene, rates, gas=False)
     rho = float(rates.max())
     needed = [2 * _tail_order(rho, scene.sampling.accuracy, scene.sampling.max_order)] if rho > 0 else []
     if "balancers" in scene.model.effects:

@@ -544,3 +544,38 @@ def test_inertia_torque_harmonics_of_a_single_cylinder_against_quadrature():
         assert mass[2 * k] == pytest.approx(-1j * b, abs=1e-12 * m * r * r)
     series = np.array([lam / 4, -0.5, -3 * lam / 4, -lam**2 / 4])
     np.testing.assert_allclose(-(1j * mass[2:9:2]).real / (m * r * r), series, atol=lam**3)
+
+
+@pytest.mark.parametrize("lam, offset", [(0.3, 0.0), (0.75, 0.012), (0.5, -0.02)])
+def test_piston_travel_is_the_slider_cranks(lam, offset):
+    """The gas loads' own piston travel and its derivative (without the
+    second derivatives) against the full slider-crank: the same closure."""
+    from harmbal.model.gas import _piston_travel
+    from harmbal.model.kinematics import slider_crank
+
+    r = 0.05
+    psi = np.linspace(-3 * np.pi, 3 * np.pi, 1001)
+    travel, dtravel = _piston_travel(psi, r, r / lam, offset, None)
+    kin = slider_crank(psi, r, r / lam, offset, None)
+    np.testing.assert_allclose(travel, kin.b, rtol=0, atol=4e-16 * r)
+    np.testing.assert_allclose(dtravel, kin.db, rtol=0, atol=4e-16 * r)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_periodic_cubic_reads_the_spline_as_scipy_does(uniform):
+    """The pressure trace's own evaluator of the periodic spline against
+    scipy's CubicSpline at angles inside, outside and on the breaks."""
+    from scipy.interpolate import CubicSpline
+
+    from harmbal.model.pressure import _periodic_spline
+
+    rng = np.random.default_rng(3)
+    period = 4 * np.pi
+    angle = np.linspace(0, period, 73)[:-1] + 0.1
+    if not uniform:
+        angle = np.sort(rng.uniform(0, period, 72)) + 0.1
+    values = 1e5 * (2 + np.sin(angle) + 0.3 * np.cos(3 * angle))
+    spline = CubicSpline(np.append(angle, angle[0] + period), np.append(values, values[0]), bc_type="periodic")
+    at = np.concatenate([rng.uniform(-3 * period, 3 * period, 500), angle, angle + period, angle - 2 * period])
+    want = spline(angle[0] + np.mod(at - angle[0], period))
+    np.testing.assert_allclose(_periodic_spline(angle, values, period)(at), want, rtol=1e-12, atol=0)

@@ -35,7 +35,7 @@ def crank_speeds(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[SpeedFluc
     the mean speed, in the sense of ``[flywheel] mean``)."""
     flywheel = scene.flywheel
     variable, derivative = crank_inertia(unit, gas)
-    torque = gas.torque.sum(axis=0)
+    torque = gas.total_torque
     return [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, load_torque=flywheel.load_torque,
                            inertia_derivative=derivative, mean=flywheel.mean)
             for w in np.atleast_1d(scene.speeds)]
@@ -45,7 +45,7 @@ def flywheels_needed(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[float
     """The constant inertia J₀ that gives ``[flywheel] target_coefficient`` at each speed."""
     flywheel = scene.flywheel
     variable, derivative = crank_inertia(unit, gas)
-    torque = gas.torque.sum(axis=0)
+    torque = gas.total_torque
     return [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w,
                          load_torque=flywheel.load_torque, inertia_derivative=derivative, mean=flywheel.mean)
             for w in np.atleast_1d(scene.speeds)]

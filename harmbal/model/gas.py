@@ -25,7 +25,7 @@ from .evaluate import ON_GRID
 from .kinematics import slider_crank
 from .pressure import check_gas, cylinder_pressure, stroke, top_dead_centre_travel
 from .sampling import interpolate
-from ..scene import Scene
+from ..scene import Scene, SceneError
 from ..scene.firing import cylinder_firing
 
 
@@ -80,12 +80,13 @@ class GasLoads:
         return self.torque.sum(axis=0)
 
     @functools.cached_property
-    def templates(self) -> tuple[np.ndarray, np.ndarray]:
+    def templates(self) -> tuple[list[int], list[int]]:
         """The cylinders evaluated (their own template) and each cylinder's
         position among them: ``torque[rows][position]`` is ``torque`` up to
-        each cylinder's ``shift``."""
-        rows = np.flatnonzero(self.template == np.arange(self.template.size))
-        return rows, np.searchsorted(rows, self.template)
+        each cylinder's ``shift``. Python lists: a handful of cylinders."""
+        template = self.template.tolist()
+        rows = [i for i, t in enumerate(template) if t == i]
+        return rows, [rows.index(t) for t in template]
 
     def on_cycle(self, values: np.ndarray) -> np.ndarray:
         """Samples of one revolution (last axis; as many as the cycle's grid
@@ -125,7 +126,6 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     -------
     GasLoads
     """
-    check_gas(scene)
     cyls = scene.cylinders
     revolutions = scene.cycle // 2
     m = samples_per_rev * revolutions
@@ -142,7 +142,11 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
             loads[:, i, :k] = loads[:, first, m - k:]
             swept[i] = swept[first]
         elif c.gas is not None:
-            swept[i] = _evaluate(loads[:, i], c, scene.cycle, series, theta, samples_per_rev, firing_angle[i])
+            try:
+                swept[i] = _evaluate(loads[:, i], c, scene.cycle, series, theta, samples_per_rev, firing_angle[i])
+            except SceneError:
+                check_gas(scene)  # the error of every cylinder whose target cannot be met, each named
+                raise
     pressure, force, torque, volume = loads
     return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
                     torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept,
@@ -192,7 +196,8 @@ def _evaluate(loads: np.ndarray, c, cycle: int, series: int | None, theta: np.nd
 
 def _same_loads(a, b) -> bool:
     """Whether cylinders ``a`` and ``b`` have the same gas table and slider-crank."""
-    return (a.crank_radius, a.rod_length, a.offset) == (b.crank_radius, b.rod_length, b.offset) and a.gas == b.gas
+    return ((a.crank_radius, a.rod_length, a.offset) == (b.crank_radius, b.rod_length, b.offset)
+            and (a.gas is b.gas or a.gas == b.gas))  # usually the same object: no field-by-field comparison
 
 
 def _piston_travel(psi: np.ndarray, r: float, l: float, e: float, series: int | None) -> tuple[np.ndarray, np.ndarray]:

@@ -122,7 +122,14 @@ class GasTables:
             trace = self.combustion(table["combustion"], where["combustion"], section, cycle)
         if trace is None or not (math.isfinite(bore) and math.isfinite(crankcase)):
             return None
-        return Gas(bore=bore, crankcase_pressure=crankcase, trace=trace)
+        gas = Gas(bore=bore, crankcase_pressure=crankcase, trace=trace)
+        # Cylinders of equal tables share one object: the model finds cylinders with the same trace by
+        # identity, without comparing the tables again at every evaluation.
+        known = self.__dict__.setdefault("_gases", [])
+        same = next((g for g in known if g == gas), None)
+        if same is None:
+            known.append(gas)
+        return gas if same is None else same
 
     # -- measured traces ---------------------------------------------------
 

@@ -4,6 +4,8 @@ and the torsional excitation, as a Dataset."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..labelled import Speeds, dataset
@@ -17,13 +19,23 @@ from .time import attributes, gas_phasors
 MAJOR_RTOL = 1e-9
 
 
-def firing_stars(firing_angle: np.ndarray, order: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Arms k·θ_f,i mod 2π of the firing star of each order k (order, cylinder)
-    and its resultant |Σ e^{−ikθ_f,i}| (order,): the factor by which the
-    cylinders' equal torque harmonics add up (the number of cylinders for a
-    major order, 0 for one that cancels)."""
-    arms = np.mod(np.multiply.outer(order, firing_angle), 2 * np.pi)
-    return arms, np.abs(np.exp(-1j * arms).sum(axis=-1))
+def firing_stars(firing_angle, max_order: int, revolutions: int) -> tuple[np.ndarray, np.ndarray]:
+    """Arms k·θ_f,i mod 2π of the firing star of each order k = 0 …
+    ``max_order`` in steps of 1/``revolutions`` (order, cylinder) and its
+    resultant |Σ e^{−ikθ_f,i}| (order,): the factor by which the cylinders'
+    equal torque harmonics add up (the number of cylinders for a major order,
+    0 for one that cancels). Cached like the crank stars (read-only arrays)."""
+    return _firing_stars(tuple(map(float, firing_angle)), int(max_order), int(revolutions))
+
+
+@functools.lru_cache(maxsize=64)
+def _firing_stars(firing_angle: tuple[float, ...], max_order: int, revolutions: int):
+    order = np.arange(revolutions * max_order + 1) / revolutions
+    arms = np.mod(np.multiply.outer(order, np.array(firing_angle)), 2 * np.pi)
+    resultant = np.abs(np.exp(-1j * arms).sum(axis=-1))
+    for array in (arms, resultant):
+        array.flags.writeable = False
+    return arms, resultant
 
 
 def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str = "scipy", spectrum=None):
@@ -90,7 +102,7 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
     mass_spectrum = mass_cylinder.sum(axis=0)
     work = 2 * np.pi * revs * gas_spectrum[:, 0].real  # ∫T dθ over the cycle = ∮(p − p_crankcase) dV
     imep = np.divide(work, gas.swept_volume, out=np.full_like(work, np.nan), where=gas.swept_volume > 0)
-    arms, resultant = firing_stars(gas.firing_angle, order)
+    arms, resultant = firing_stars(gas.firing_angle, kmax, revs)
     major = is_balanced(resultant - len(scene.cylinders), len(scene.cylinders), MAJOR_RTOL)
 
     coords = speeds.coords()

@@ -146,7 +146,20 @@ class Speeds:
         if not self.several:
             return variable(dims, self.scaled(unit, constant), attrs)
         lazy = speed_scaled(self.w2, unit, None if constant is None else np.asarray(constant))
-        return xr.Variable(self.lead + dims, indexing.LazilyIndexedArray(lazy), attrs)
+        data = indexing.LazilyIndexedArray(lazy, _whole(lazy.ndim))
+        if not _direct_variables():  # pragma: no cover - an xarray that changed
+            return xr.Variable(self.lead + dims, data, attrs)
+        var = object.__new__(xr.Variable)
+        var._dims, var._data, var._attrs, var._encoding = self.lead + tuple(dims), data, dict(attrs), None
+        return var
+
+
+@functools.cache
+def _whole(ndim: int):
+    """The key that selects a whole array of ``ndim`` dimensions (immutable, shared)."""
+    from xarray.core import indexing
+
+    return indexing.BasicIndexer((slice(None),) * ndim)
 
 
 def dataset(data: dict, coords: dict, attrs: dict):

@@ -136,17 +136,21 @@ def gas_loads(scene: Scene, samples_per_rev: int) -> GasLoads:
     swept = np.zeros(len(cyls))
     series = scene.model.series_harmonics if scene.model.piston == "series" else None
     for i, c in enumerate(cyls):
-        k, first = shift[i], template[i]
-        if first != i:
-            loads[:, i, k:] = loads[:, first, : m - k]  # np.roll by k, without its copies
-            loads[:, i, :k] = loads[:, first, m - k:]
-            swept[i] = swept[first]
-        elif c.gas is not None:
+        if template[i] == i and c.gas is not None:
             try:
                 swept[i] = _evaluate(loads[:, i], c, scene.cycle, series, theta, samples_per_rev, firing_angle[i])
             except SceneError:
                 check_gas(scene)  # the error of every cylinder whose target cannot be met, each named
                 raise
+    # Every other cylinder: its template's loads rolled by its shift k, one slice of the template's cycle written
+    # twice (sample j is the template's j − k; half the cost of the two slices of np.roll per cylinder).
+    twice: dict[int, np.ndarray] = {}
+    for i, (first, k) in enumerate(zip(template, shift)):
+        if first != i:
+            if first not in twice:
+                twice[first] = np.concatenate([loads[:, first], loads[:, first]], axis=-1)
+            loads[:, i] = twice[first][:, m - k: 2 * m - k]
+            swept[i] = swept[first]
     pressure, force, torque, volume = loads
     return GasLoads(theta=theta, revolutions=revolutions, sense=scene.sense, pressure=pressure, force=force,
                     torque=torque, firing_angle=firing_angle, volume=volume, swept_volume=swept,

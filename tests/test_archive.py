@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 
 import harmbal as hb
+
+ROOT = Path(__file__).resolve().parent.parent
 
 SCENE_TOML = """\
 [engine]
@@ -97,6 +100,26 @@ def test_round_trip_single_speed(tmp_path):
     back = hb.open_archive(hb.save(tree, tmp_path / "single.nc"))
     for path in _paths(tree):
         xr.testing.assert_identical(back[path].to_dataset(inherit=False), tree[path].to_dataset(inherit=False))
+
+
+def test_gas_sweep_round_trip_and_plain_reconstruction(tmp_path):
+    # The gas loads do not scale with ω²: a sweep stores them beside the unit-speed inertia as
+    # "<name>_speed_independent", only for the variables the gas adds to (a pure couple about x: the
+    # moment, its tail and scale; no force), and a plain reader rebuilds each speed as stored·ω² + that.
+    tree = hb.analyse(hb.load_scene(ROOT / "datasets" / "engines" / "v8-cross-plane-gas.toml"))
+    path = hb.save(tree, tmp_path / "v8-gas.nc")
+    back = hb.open_archive(path)
+    for group in ("time", "orders", "torque"):
+        xr.testing.assert_identical(back[group].to_dataset(inherit=False), tree[group].to_dataset(inherit=False))
+    with xr.open_datatree(path) as plain:
+        orders = plain["orders"].ds
+        companions = sorted(n for n in orders.data_vars if n.endswith("_speed_independent"))
+        assert companions == ["aliasing_error_moment_speed_independent", "moment_scale_speed_independent",
+                              "moment_speed_independent"]
+        w2 = (orders.speed.values**2)[:, None, None]
+        stored, constant = orders.moment.isel(part=0).values, orders.moment_speed_independent.isel(part=0).values
+        np.testing.assert_array_equal(w2 * stored + constant, tree["orders"].ds.moment.values.real)
+        np.testing.assert_array_equal(w2 * orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
 
 
 def test_plain_xarray_reads_it(archive, tree):

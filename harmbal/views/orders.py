@@ -88,10 +88,13 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
     arrays = [order_arrays(*_spectra(part), attrs, max_order=kmax, backend=backend, revolutions=revs)
               if part else None for part in parts]
     (values, attrs), gas = arrays[0], arrays[1]
+    constants = None
     if gas is not None:
         attrs["gas_accuracy_reached"] = gas[1]["accuracy_reached"]
-    return orders_dataset(values, attrs, speeds, coords, lead=() if swept else lead,
-                          constants=None if gas is None else gas[0])
+        # Only the parts the speed-independent loads have (the gas's couple: no force, no transverse
+        # moment), as unit_orders gives them to analyse: the same variables carry a companion either way.
+        constants = {name: v for name, v in gas[0].items() if np.any(v)}
+    return orders_dataset(values, attrs, speeds, coords, lead=() if swept else lead, constants=constants)
 
 
 def _spectra(part: dict) -> tuple:

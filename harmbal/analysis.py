@@ -12,8 +12,8 @@ from .model.sampling import body_decay_rates, choose_samples, inertia_samples, s
 from .orders.phasors import order_phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
-from .views.stars import stars_dataset
-from .views.time import body_aliasing, body_moments, gas_phasors, time_dataset
+from .views.stars import placement, stars_dataset
+from .views.time import attributes, body_aliasing, body_moments, gas_phasors, time_dataset
 from .views.torque import torque_dataset
 
 
@@ -91,18 +91,27 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     aliasing = body_aliasing(unit, backend, moments)
     # The gas torque's phasors and tail, once for /time, /orders and /torque.
     gas_spectrum, gas_tail = (None, None) if gas is None else gas_phasors(gas, scene.sampling.max_order, backend)
-    time = time_dataset(scene, unit, per_cylinder=per_cylinder, moments=moments, aliasing=aliasing, gas=gas,
-                        gas_tail=gas_tail, backend=backend)
-    values, attrs, gas_values = unit_orders(scene, unit, aliasing, backend, gas, gas_tail, gas_spectrum)
-    speeds = Speeds(scene.speeds)
-    orders = orders_dataset(values, attrs, speeds, speeds.coords(), constants=gas_values)
+    # What the views read of the scene besides the evaluation: speeds, shared attributes, the cylinders' placement.
+    speeds, attrs = Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas)
+    labels, throw, bank, firing = placement(scene)
+    time = time_dataset(unit, speeds, attrs, labels=labels if per_cylinder else None, moments=moments,
+                        aliasing=aliasing, gas=gas, gas_tail=gas_tail, backend=backend)
+    values, order_attrs, gas_values = unit_orders(unit, aliasing, attrs, backend, gas, gas_tail, gas_spectrum)
+    orders = orders_dataset(values, order_attrs, speeds, speeds.coords(), constants=gas_values)
     whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders
+    p = order_phasors(scene, unit=unit, backend=backend)
+    star_attrs = attrs if gas is None else attributes(scene, p.samples_per_rev)  # the stars' grid: the inertia's
     groups = {"scene": scene_dataset(scene), "time": time, "orders": orders,
-              "stars": stars_dataset(scene, order_phasors(scene, unit=unit, backend=backend),
+              "stars": stars_dataset(p, speeds, star_attrs, labels, throw, bank, firing,
                                      totals=(values["force"][whole].T, values["moment"][whole].T))}
     if gas is not None:
-        groups["torque"] = torque_dataset(scene, unit, gas, backend=backend, spectrum=gas_spectrum)
+        groups["torque"] = torque_dataset(unit, gas, speeds, attrs, labels, _crank_radius(scene),
+                                          flywheel=scene.flywheel, backend=backend, spectrum=gas_spectrum)
     return _tree(scene, groups, backend)
+
+
+def _crank_radius(scene: Scene) -> np.ndarray:
+    return np.array([c.crank_radius for c in scene.cylinders])
 
 
 def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
@@ -119,9 +128,14 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
     steady = scene.with_effects(scene.model.effects - {"speed_fluctuation"})
     unit = evaluate(steady)
     gas = gas_loads(steady, unit.samples_per_rev)
+    p = order_phasors(steady, unit=unit, backend=backend)
+    speeds = Speeds(scene.speeds)
+    stars = stars_dataset(p, speeds, attributes(steady, p.samples_per_rev), *placement(scene))
+    torque = torque_dataset(unit, gas, speeds, attributes(scene, unit.samples_per_rev, gas),
+                            [c.label for c in scene.cylinders], _crank_radius(scene), flywheel=scene.flywheel,
+                            backend=backend)
     return _tree(scene, {"scene": scene_dataset(scene), "time": time, "orders": order_spectrum(time, backend=backend),
-                         "stars": stars_dataset(steady, order_phasors(steady, unit=unit, backend=backend)),
-                         "torque": torque_dataset(scene, unit, gas, backend=backend)}, backend)
+                         "stars": stars, "torque": torque}, backend)
 
 
 def _tree(scene: Scene, groups: dict, backend: str):

@@ -289,10 +289,10 @@ def _order_table_without_datasets(scene, backend: str) -> str:
     from .model.evaluate import evaluate
     from .reporting.tables import order_table_of_arrays
     from .views.orders import unit_orders
-    from .views.time import body_aliasing
+    from .views.time import attributes, body_aliasing
 
     unit = evaluate(scene)
-    values, attrs, _ = unit_orders(scene, unit, body_aliasing(unit, backend), backend)
+    values, attrs, _ = unit_orders(unit, body_aliasing(unit, backend), attributes(scene, unit.samples_per_rev), backend)
     speeds = np.asarray(scene.speeds, dtype=float)
     w2 = speeds**2
     return order_table_of_arrays(attrs, speeds, lambda i: {name: w2[i] * np.asarray(v) for name, v in values.items()})

@@ -19,7 +19,7 @@ import numpy as np
 from .evaluate import UnitLoads
 from .gas import GasLoads
 from .speed import SpeedFluctuation, flywheel_for, periodic_speed
-from ..scene import Scene
+from ..scene.schema import Flywheel
 
 
 def crank_inertia(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarray]:
@@ -30,40 +30,40 @@ def crank_inertia(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarra
     return 2 * energy, 2 * torque
 
 
-def crank_speeds(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[SpeedFluctuation]:
-    """The periodic speed over the cycle at each of the scene's speeds (each
-    the mean speed, in the sense of ``[flywheel] mean``)."""
-    flywheel = scene.flywheel
+def crank_speeds(flywheel: Flywheel, speeds, unit: UnitLoads, gas: GasLoads) -> list[SpeedFluctuation]:
+    """The periodic speed over the cycle at each of ``speeds`` [rad/s] (each
+    the mean speed, in the sense of ``flywheel.mean``)."""
     variable, derivative = crank_inertia(unit, gas)
     torque = gas.total_torque
     return [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, load_torque=flywheel.load_torque,
                            inertia_derivative=derivative, mean=flywheel.mean)
-            for w in np.atleast_1d(scene.speeds)]
+            for w in np.atleast_1d(speeds)]
 
 
-def flywheels_needed(scene: Scene, unit: UnitLoads, gas: GasLoads) -> list[float]:
-    """The constant inertia J₀ that gives ``[flywheel] target_coefficient`` at each speed."""
-    flywheel = scene.flywheel
+def flywheels_needed(flywheel: Flywheel, speeds, unit: UnitLoads, gas: GasLoads) -> list[float]:
+    """The constant inertia J₀ that gives ``flywheel.target_coefficient`` at each of ``speeds`` [rad/s]."""
     variable, derivative = crank_inertia(unit, gas)
     torque = gas.total_torque
     return [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w,
                          load_torque=flywheel.load_torque, inertia_derivative=derivative, mean=flywheel.mean)
-            for w in np.atleast_1d(scene.speeds)]
+            for w in np.atleast_1d(speeds)]
 
 
-def fluctuating_loads(scene: Scene, unit: UnitLoads, per_alpha: UnitLoads, runs: list[SpeedFluctuation],
-                      revolutions: int) -> tuple[np.ndarray, np.ndarray]:
+def fluctuating_loads(unit: UnitLoads, per_alpha: UnitLoads, runs: list[SpeedFluctuation], revolutions: int,
+                      inertia: float) -> tuple[np.ndarray, np.ndarray]:
     """Force and moment about the reference point on the block at each run's
     fluctuating speed, shape (speed, axis, angle) over the cycle.
 
     ``unit`` and ``per_alpha`` are the evaluations per ω² and per α of the
-    scene without its constant-speed drive torque (``mass_torque``)."""
+    scene without its constant-speed drive torque (``mass_torque``);
+    ``inertia`` the constant rotating inertia J₀ [kg m²], whose −J₀·α the
+    block receives."""
     f_nu, m_nu = (np.tile(a, revolutions) for a in unit.total())
     f_mu, m_mu = (np.tile(a, revolutions) for a in per_alpha.total())
     omega2 = np.array([r.omega**2 for r in runs])[:, None, :]
     alpha = np.array([r.alpha for r in runs])[:, None, :]
     force = omega2 * f_nu + alpha * f_mu
     moment = omega2 * m_nu + alpha * m_mu
-    reaction = np.array([-scene.flywheel.inertia * r.alpha - r.load_torque for r in runs])
-    moment[:, 0] += scene.sense * reaction
+    reaction = np.array([-inertia * r.alpha - r.load_torque for r in runs])
+    moment[:, 0] += unit.sense * reaction
     return force, moment

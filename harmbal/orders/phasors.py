@@ -55,6 +55,9 @@ class OrderPhasors:
     alias_moment: np.ndarray
     samples_per_rev: int
     groups: int
+    #: The crank's sense of rotation (+1 counterclockwise seen from the front, −1 clockwise): the frame of
+    #: the transverse phasors.
+    sense: int
     #: Aliasing estimates of the lever balancers (sampled, not closed form).
     crankshaft_alias_force: float = 0.0
     crankshaft_alias_moment: float = 0.0
@@ -166,6 +169,6 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
         peak_force=unit.peak_force, peak_moment=unit.peak_moment,
         crankshaft_peak_force=unit.crankshaft_peak_force, crankshaft_peak_moment=unit.crankshaft_peak_moment,
         alias_force=alias_force, alias_moment=alias_roll + unit.lever_arm * alias_force,
-        samples_per_rev=n, groups=int(group.max(initial=-1)) + 1,
+        samples_per_rev=n, groups=int(group.max(initial=-1)) + 1, sense=sense,
         crankshaft_alias_force=lever_alias_force, crankshaft_alias_moment=lever_alias_moment,
     )

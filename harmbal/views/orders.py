@@ -9,8 +9,7 @@ from ..model.sampling import AccuracyWarning
 from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, aliasing_estimate, phasors, rotating_split
-from ..scene import Scene
-from .time import attributes, gas_phasors
+from .time import gas_phasors
 
 
 def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", workers: int | None = None):
@@ -155,18 +154,18 @@ def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dic
     return values, attrs
 
 
-def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "scipy",
+def unit_orders(unit: UnitLoads, aliasing: tuple, attrs: dict, backend: str = "scipy",
                 gas: GasLoads | None = None, gas_tail=None, gas_spectrum=None) -> tuple[dict, dict, dict | None]:
     """:func:`order_arrays` of one evaluation at unit speed (``aliasing`` from
-    :func:`harmbal.views.time.body_aliasing`), and, with ``gas``, those of the
+    :func:`harmbal.views.time.body_aliasing`, ``attrs`` the views' shared
+    attributes, :func:`harmbal.views.time.attributes`), and, with ``gas``, those of the
     speed-independent gas loads over the cycle (else None; ``gas_tail``:
     :func:`harmbal.views.time.gas_aliasing`, ``gas_spectrum``: the phasors
     of :func:`harmbal.views.time.gas_phasors`, if already computed); the
     values at speed ω are the first times ω² plus the second."""
     force, moment = unit.total()
     spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order)
-    kmax = scene.sampling.max_order
-    attrs = attributes(scene, unit.samples_per_rev, gas)
+    kmax = unit.max_order
     tails, scales = {"force": aliasing[0], "moment": aliasing[1]}, {"force": unit.force_scale, "moment": unit.moment_scale}
     if gas is None:
         return (*order_arrays(spectrum[0], spectrum[1], tails, scales, attrs, max_order=kmax, backend=backend), None)
@@ -183,7 +182,7 @@ def unit_orders(scene: Scene, unit: UnitLoads, aliasing: tuple, backend: str = "
     scale = gas.moment_scale
     reached = float(gas_tail.max(initial=0.0)) / scale if scale > 0 else 0.0
     _check_resolved(reached, max(float(attrs.get("accuracy_target", 0.0)), GAS_ACCURACY),
-                    int(attrs["samples_per_rev"]), kmax, scene.name)
+                    int(attrs["samples_per_rev"]), kmax, attrs["engine"])
     attrs["gas_accuracy_reached"] = reached
     return values, attrs, {"moment": gas.moment(gas_spectrum).T, "aliasing_error_moment": gas_tail,
                            "moment_scale": scale}

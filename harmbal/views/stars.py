@@ -8,7 +8,7 @@ from ..labelled import AXES, Speeds, dataset
 from ..orders.phasors import OrderPhasors, order_phasors
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, is_balanced, rotating_split
 from ..orders.stars import crank_stars
-from ..scene.firing import cylinder_firing
+from ..scene.firing import Firing, cylinder_firing
 from ..scene import Scene
 from .time import attributes
 
@@ -56,25 +56,36 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         * ``firing_angle`` (cylinder) [rad], ``firing_sequence`` and
           ``firing_interval`` [rad] (firing).
     """
-    return stars_dataset(scene, order_phasors(scene, samples_per_rev=samples_per_rev, backend=backend))
+    p = order_phasors(scene, samples_per_rev=samples_per_rev, backend=backend)
+    return stars_dataset(p, Speeds(scene.speeds), attributes(scene, p.samples_per_rev), *placement(scene))
+
+
+def placement(scene: Scene) -> tuple[list[str], np.ndarray, np.ndarray, Firing]:
+    """What :func:`stars_dataset` reads of the cylinders: labels, throw and
+    bank angles [rad] and the firing (:func:`harmbal.scene.firing.cylinder_firing`)."""
+    cyls = scene.cylinders
+    return ([c.label for c in cyls], np.array([c.throw for c in cyls]), np.array([c.bank for c in cyls]),
+            cylinder_firing(cyls, scene.cycle, scene.firing_order))
 
 
 #: The free vectors of :func:`stars` that an analysis tree keeps in ``/orders`` only.
 FREE_VECTORS = ("force", "moment", "force_rotating", "moment_rotating")
 
 
-def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None):
-    """The Dataset of :func:`stars` from the scene's order phasors.
+def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str], throw: np.ndarray,
+                  bank: np.ndarray, fire: Firing, *, totals: tuple | None = None):
+    """The Dataset of :func:`stars` from the order phasors ``p`` at
+    ``speeds``, with the views' shared ``attrs``
+    (:func:`harmbal.views.time.attributes`) and the cylinders' ``labels``,
+    ``throw`` and ``bank`` angles [rad] and firing (:func:`placement`).
 
     ``totals``: the unit-speed force and moment phasors (axis, order) of an
     analysis tree's ``/orders``; then the free vectors are classified from
     them and :data:`FREE_VECTORS` are left to ``/orders``
     (:func:`with_free_vectors` puts them back)."""
-    kmax = scene.sampling.max_order
-    sense = scene.sense
-    speeds = Speeds(scene.speeds)
+    kmax = p.force_cylinder.shape[-1] - 1
+    sense = p.sense
     var, coords = speeds.variable, speeds.coords()
-    labels = [c.label for c in scene.cylinders]
 
     def rotating(per_axis):
         return np.stack(rotating_split(per_axis[..., 2, :], -sense * per_axis[..., 1, :]), axis=-1)
@@ -91,9 +102,7 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
     def cleaned(values, scale):
         return np.where(is_balanced(values, scale), 0, values)
 
-    angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars([c.throw for c in scene.cylinders], [c.bank for c in scene.cylinders], kmax)
-    cyl = scene.cylinders
-    fire = cylinder_firing(cyl, scene.cycle, scene.firing_order)
+    angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars(throw, bank, kmax)
 
     # Alone, the free vectors of the order domain; in a tree they are /orders' (FREE_VECTORS).
     free = {} if totals is not None else {
@@ -134,16 +143,16 @@ def stars_dataset(scene: Scene, p: OrderPhasors, *, totals: tuple | None = None)
     coords.update({
         "order": ("order", np.arange(kmax + 1), {"long_name": "order of crank speed", "units": "1"}),
         "cylinder": ("cylinder", labels, {"long_name": "cylinder label"}),
-        "throw": ("cylinder", np.array([c.throw for c in cyl]), {"units": "rad", "long_name": "throw angle φ"}),
-        "cylinder_bank": ("cylinder", np.array([c.bank for c in cyl]), {"units": "rad", "long_name": "bank angle β"}),
+        "throw": ("cylinder", np.asarray(throw, dtype=float), {"units": "rad", "long_name": "throw angle φ"}),
+        "cylinder_bank": ("cylinder", np.asarray(bank, dtype=float), {"units": "rad", "long_name": "bank angle β"}),
         "axis": ("axis", list(AXES), {"long_name": "engine axis"}),
         "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
         "bank": ("bank", banks, {"units": "rad", "long_name": "bank angle"}),
-        "firing": ("firing", np.arange(1, len(cyl) + 1), {"long_name": "position in the firing sequence"}),
+        "firing": ("firing", np.arange(1, len(labels) + 1), {"long_name": "position in the firing sequence"}),
     })
-    attrs = attributes(scene, p.samples_per_rev)
+    attrs = dict(attrs)
     attrs.update({
-        "title": f"harmbal crank stars and free vectors: {scene.name}",
+        "title": f"harmbal crank stars and free vectors: {attrs['engine']}",
         "path": "order domain: one exact spectrum per cylinder type, shift theorem per cylinder",
         "cylinder_types": p.groups,
         "amplitude": "peak (one-sided)",

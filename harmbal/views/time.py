@@ -60,7 +60,8 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
     samples = samples_per_rev or choose_samples(scene)
     unit = evaluate(scene, samples_per_rev or inertia_samples(scene), peak_samples=samples)
     gas = gas_loads(scene, samples) if simulates_gas(scene) else None
-    return time_dataset(scene, unit, per_cylinder=per_cylinder, gas=gas)
+    return time_dataset(unit, Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas),
+                        labels=[c.label for c in scene.cylinders] if per_cylinder else None, gas=gas)
 
 
 def body_moments(unit: UnitLoads) -> tuple[np.ndarray, np.ndarray]:
@@ -151,13 +152,16 @@ def _roots_of_unity(m: int) -> np.ndarray:
     return roots
 
 
-def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, moments=None, aliasing=None,
-                 gas: GasLoads | None = None, gas_tail=None, backend: str = "scipy"):
-    """The time-domain Dataset of one evaluation (see :func:`simulate`);
+def time_dataset(unit: UnitLoads, speeds: Speeds, attrs: dict, *, labels: list[str] | None = None, moments=None,
+                 aliasing=None, gas: GasLoads | None = None, gas_tail=None, backend: str = "scipy"):
+    """The time-domain Dataset of one evaluation (see :func:`simulate`) at
+    ``speeds``, with the Dataset's ``attrs`` (:func:`attributes`); each
+    cylinder's loads too, under the cylinder ``labels``, if given.
     ``moments`` = :func:`body_moments`, ``aliasing`` = :func:`body_aliasing`
     and ``gas_tail`` = :func:`gas_aliasing` if already computed; ``gas`` the
     gas loads if simulated (on the cycle's grid, onto which ``unit``'s
     revolution is interpolated and repeated: :meth:`GasLoads.on_cycle`)."""
+    per_cylinder = labels is not None
     moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
     crank_force, _ = unit.crankshaft()
     force = unit.force_cylinder.sum(axis=0) + crank_force
@@ -171,9 +175,7 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
         if per_cylinder:
             force_cyl, moment_cyl = gas.on_cycle(np.stack([force_cyl, moment_cyl]))
         extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,
-                 "aliasing_error_moment": gas_aliasing(gas, scene.sampling.max_order, backend) if gas_tail is None
-                 else gas_tail}
-    speeds = Speeds(scene.speeds)
+                 "aliasing_error_moment": gas_aliasing(gas, unit.max_order, backend) if gas_tail is None else gas_tail}
 
     def var(dims, values, attrs, name=None):
         return speeds.variable(dims, values, attrs, constant=extra.get(name))
@@ -198,7 +200,7 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
             "aliasing_error_moment"),
     }
     if per_cylinder:
-        coords["cylinder"] = ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"})
+        coords["cylinder"] = ("cylinder", list(labels), {"long_name": "cylinder label"})
         dims = ("cylinder", "axis", "angle")
         data["force_cylinder"] = var(dims, force_cyl, {"units": "N", "long_name": "force of one cylinder"})
         if gas is not None:
@@ -206,7 +208,6 @@ def time_dataset(scene: Scene, unit: UnitLoads, *, per_cylinder: bool = False, m
             extra["moment_cylinder"][:, 0] = gas.sense * gas.roll
         data["moment_cylinder"] = var(dims, moment_cyl, {"units": "N m", "long_name": "moment of one cylinder"},
                                       "moment_cylinder")
-    attrs = attributes(scene, unit.samples_per_rev, gas)
     return dataset(data, coords, attrs)
 
 
@@ -223,8 +224,8 @@ def fluctuating_time_dataset(scene: Scene, *, samples_per_rev: int | None = None
     unit = evaluate(base, samples_per_rev)
     per_alpha = evaluate(base, unit.samples_per_rev, tangential=True)
     gas = gas_loads(scene, unit.samples_per_rev)
-    runs = crank_speeds(scene, unit, gas)
-    force, moment = fluctuating_loads(scene, unit, per_alpha, runs, gas.revolutions)
+    runs = crank_speeds(scene.flywheel, scene.speeds, unit, gas)
+    force, moment = fluctuating_loads(unit, per_alpha, runs, gas.revolutions, scene.flywheel.inertia)
     w2 = np.array([r.omega.max() ** 2 for r in runs])
     alpha = np.array([np.abs(r.alpha).max() for r in runs])
     reaction = np.array([scene.flywheel.inertia * a + abs(r.load_torque) for r, a in zip(runs, alpha)])

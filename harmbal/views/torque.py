@@ -12,8 +12,8 @@ from ..labelled import Speeds, dataset
 from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
 from ..orders.spectrum import is_balanced, phasors
-from ..scene import Scene
-from .time import attributes, gas_phasors
+from ..scene.schema import Flywheel
+from .time import gas_phasors
 
 #: An order is "major" when the arms of its firing star coincide to within this (of the cylinder count).
 MAJOR_RTOL = 1e-9
@@ -38,18 +38,28 @@ def _firing_stars(firing_angle: tuple[float, ...], max_order: int, revolutions: 
     return arms, resultant
 
 
-def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str = "scipy", spectrum=None):
+def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, labels: list[str],
+                   crank_radius: np.ndarray, *, flywheel: Flywheel | None = None, backend: str = "scipy",
+                   spectrum=None):
     """Pressure, gas torque, mass torque and their orders over the cycle.
 
     Parameters
     ----------
-    scene : Scene
-        Names, speeds and the cylinders' crank radii.
     unit : UnitLoads
         The inertia evaluation, on the cycle's grid or a coarser one of its
         own (:meth:`GasLoads.on_cycle` brings it onto the cycle's).
     gas : GasLoads
         The gas loads (:func:`harmbal.model.gas.gas_loads`).
+    speeds : Speeds
+        The scene's speeds.
+    attrs : dict
+        The views' shared attributes (:func:`harmbal.views.time.attributes`).
+    labels : list of str
+        The cylinders' labels.
+    crank_radius : ndarray
+        Each cylinder's crank radius [m] (cylinder,).
+    flywheel : Flywheel, optional
+        The scene's ``[flywheel]`` table: then the speed fluctuation too.
     spectrum : ndarray, optional
         The gas torque's phasors (:func:`harmbal.views.time.gas_phasors`),
         if already computed.
@@ -85,29 +95,28 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
           ``fluctuation_coefficient``, ``flywheel_inertia``, ``load_torque``
           and, for a target coefficient, ``flywheel_inertia_needed``.
     """
-    kmax = scene.sampling.max_order
+    kmax = unit.max_order
     revs = gas.revolutions
     count = revs * kmax + 1
     order = np.arange(count) / revs
-    speeds = Speeds(scene.speeds)
-    crank_radius = np.array([c.crank_radius for c in scene.cylinders])
+    ncyl = len(labels)
 
     # The mass torque repeats every revolution; over the cycle it has whole orders only.
     mass_torque = gas.on_cycle(unit.drive_torque.sum(axis=0))
     gas_spectrum = gas_phasors(gas, kmax, backend)[0] if spectrum is None else spectrum
     gas_total = gas_spectrum.sum(axis=0)
     # Each cylinder's mass torque over the cycle: whole orders only.
-    mass_cylinder = np.zeros((len(scene.cylinders), count), dtype=complex)
+    mass_cylinder = np.zeros((ncyl, count), dtype=complex)
     mass_cylinder[:, ::revs] = phasors(unit.drive_torque, backend)[:, : kmax + 1]
     mass_spectrum = mass_cylinder.sum(axis=0)
     work = 2 * np.pi * revs * gas_spectrum[:, 0].real  # ∫T dθ over the cycle = ∮(p − p_crankcase) dV
     imep = np.divide(work, gas.swept_volume, out=np.full_like(work, np.nan), where=gas.swept_volume > 0)
     arms, resultant = firing_stars(gas.firing_angle, kmax, revs)
-    major = is_balanced(resultant - len(scene.cylinders), len(scene.cylinders), MAJOR_RTOL)
+    major = is_balanced(resultant - ncyl, ncyl, MAJOR_RTOL)
 
     coords = speeds.coords()
     coords.update({
-        "cylinder": ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"}),
+        "cylinder": ("cylinder", list(labels), {"long_name": "cylinder label"}),
         "angle": ("angle", gas.theta, {"units": "rad", "long_name": "crank angle θ"}),
         "order": ("order", order, {"long_name": "order of crank speed", "units": "1"}),
     })
@@ -151,20 +160,17 @@ def torque_dataset(scene: Scene, unit: UnitLoads, gas: GasLoads, *, backend: str
         "firing_star_resultant": (("order",), resultant, {"units": "1", "long_name": "|Σ exp(−i k θ_fire)|"}),
         "major_order": (("order",), major, {"long_name": "all cylinders' torque harmonics in phase (major order)"}),
     }
-    if scene.flywheel is not None:
-        data.update(_speed_fluctuation(scene, unit, gas, speeds))
-    attrs = attributes(scene, unit.samples_per_rev, gas)
-    attrs["title"] = f"harmbal torque: {scene.name}"
-    return dataset(data, coords, attrs)
+    if flywheel is not None:
+        data.update(_speed_fluctuation(flywheel, unit, gas, speeds))
+    return dataset(data, coords, {**attrs, "title": f"harmbal torque: {attrs['engine']}"})
 
 
-def _speed_fluctuation(scene: Scene, unit: UnitLoads, gas: GasLoads, speeds: Speeds) -> dict:
+def _speed_fluctuation(flywheel: Flywheel, unit: UnitLoads, gas: GasLoads, speeds: Speeds) -> dict:
     """ω(θ), α(θ), the coefficient of speed fluctuation and, for a target, the
     flywheel inertia needed, per speed (:mod:`harmbal.model.fluctuation`)."""
     from ..model.fluctuation import crank_speeds, flywheels_needed
 
-    flywheel = scene.flywheel
-    runs = crank_speeds(scene, unit, gas)
+    runs = crank_speeds(flywheel, speeds.values, unit, gas)
 
     def per_speed(values):
         values = np.asarray(values)
@@ -184,7 +190,7 @@ def _speed_fluctuation(scene: Scene, unit: UnitLoads, gas: GasLoads, speeds: Spe
         "load_torque": ((), runs[0].load_torque, {"units": "N m", "long_name": "load torque (constant)"}),
     }
     if flywheel.target_coefficient is not None:
-        data["flywheel_inertia_needed"] = (lead, per_speed(flywheels_needed(scene, unit, gas)), {
+        data["flywheel_inertia_needed"] = (lead, per_speed(flywheels_needed(flywheel, speeds.values, unit, gas)), {
             "units": "kg m2", "long_name": "constant inertia J₀ that gives the target coefficient",
             "fluctuation_target": flywheel.target_coefficient})
     return data

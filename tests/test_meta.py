@@ -111,3 +111,28 @@ def test_no_import_circles():
         if module not in state:
             visit(module, [module])
     assert not circles, circles
+
+
+#: The functions of the views stage that read a Scene: the public API and the edge helpers that turn a
+#: scene into what the Dataset builders take (their shared attributes, the cylinders' placement) or that
+#: evaluate it (the fluctuating time domain). Every other function of the stage takes the evaluation's
+#: arrays and the parameters it needs.
+VIEW_EDGE = {"attributes", "placement", "fluctuating_time_dataset"}
+
+
+def test_views_below_the_public_api_do_not_take_the_scene():
+    import ast
+    from pathlib import Path
+
+    public = set(harmbal.__all__)
+    root = Path(harmbal.__file__).parent / "views"
+    takers = set()
+    for path in root.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.FunctionDef):
+                arguments = node.args.posonlyargs + node.args.args + node.args.kwonlyargs
+                if any(a.arg == "scene" or "Scene" in ast.unparse(a.annotation or ast.Constant(None))
+                       for a in arguments):
+                    takers.add(node.name)
+    assert "time_dataset" not in takers and "simulate" in takers  # the parser sees both kinds
+    assert takers - public == VIEW_EDGE

@@ -15,6 +15,7 @@ from ..model.linkage import to_engine
 from ..model.sampling import choose_samples, simulates_gas
 from ..orders.spectrum import phasors, rotating_split
 from ..scene import Scene
+from ..scene.interfaces import LoadsRequest
 from ..scene.requests import PEAK_SAMPLES
 from .time import attributes
 
@@ -176,7 +177,8 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
             "description": "w(θ) = Σ_k (P_co e^{ikθ} + P_counter e^{−ikθ}); order 0 is the mean force (co)"},
             constant=fixed if np.any(fixed) else None)
     if request is not None and request.elements:
-        data.update(_elements(scene, theta, speeds, coords))
+        top = request.max_speed if request.max_speed is not None else max(scene.speeds)
+        data.update(_elements(request, scene.shafts, scene.sense, theta, speeds, top, coords))
     attrs = attributes(scene, n)
     attrs.update({"title": f"harmbal loads: {scene.name}", "revolutions": revolutions,
                   "gas": "yes" if gas is not None else "no",
@@ -185,11 +187,11 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     return dataset(data, coords, attrs)
 
 
-def _elements(scene: Scene, theta: np.ndarray, speeds: Speeds, coords: dict) -> dict:
-    """Shaft-bearing loads, fastener loads and ramp torques of the [[loads.element]] entries."""
-    request = scene.loads
-    shafts = {s.label: s for s in scene.shafts}
-    sense = scene.sense
+def _elements(request: LoadsRequest, shafts, sense: int, theta: np.ndarray, speeds: Speeds, top: float,
+              coords: dict) -> dict:
+    """Shaft-bearing loads, fastener loads and ramp torques of the [[loads.element]] entries of ``request``
+    (the scene's [loads] table) on the balance ``shafts``; fastener loads at the crank speed ``top`` [rad/s]."""
+    shafts = {s.label: s for s in shafts}
     data: dict = {}
     w2 = np.atleast_1d(speeds.w2)
     squeeze = (lambda a: a) if speeds.several else (lambda a: a[0])
@@ -224,7 +226,6 @@ def _elements(scene: Scene, theta: np.ndarray, speeds: Speeds, coords: dict) -> 
             if e.fasteners is not None or e.inertia is not None]
     if rows:
         coords["element"] = ("element", [s.label for s, _ in rows], {"long_name": "balancer element"})
-        top = request.max_speed if request.max_speed is not None else max(scene.speeds)
         nan = float("nan")
         unbalance = [abs(sum(u.unbalance * np.exp(1j * u.angle) for u in s.unbalances)) for s, _ in rows]
         data["fastener_speed"] = ((), top, {"units": "rad/s", "long_name": "crank speed of the fastener loads"})

@@ -58,16 +58,19 @@ def shaft_loads(shafts: tuple[Shaft, ...], theta: np.ndarray, sense: int,
     the crank angles ``theta``, summed: arrays (axis, angle). ``tangential``:
     the loads per unit crank acceleration instead (a point at phase nθ has
     d²q/dθ² = −n²·q and dq/dθ = n·i·q, so Re(P e^{inθ}) becomes Re(−i·P/n e^{inθ}))."""
-    force = np.zeros((3, len(theta)))
-    moment = np.zeros((3, len(theta)))
+    # The loads are linear in the amplitudes and Re(P e^{−inθ}) = Re(P̄ e^{inθ}): the shafts at ±n (a crank's
+    # counterweights and a −1× moment shaft, say) share one e^{inθ}, the dearest part on a fine grid.
+    amplitudes: dict[int, np.ndarray] = {}
     for shaft in shafts:
-        p_force, p_moment = shaft_amplitudes(shaft, sense)
+        p = np.concatenate(shaft_amplitudes(shaft, sense))  # force then moment, (6,)
         if tangential:
-            p_force, p_moment = -1j * p_force / shaft.ratio, -1j * p_moment / shaft.ratio
-        turn = np.exp(1j * shaft.ratio * theta)
-        force += (p_force[:, None] * turn).real
-        moment += (p_moment[:, None] * turn).real
-    return force, moment
+            p = -1j * p / shaft.ratio
+        n = abs(shaft.ratio)
+        amplitudes[n] = amplitudes.get(n, 0) + (p if shaft.ratio > 0 else np.conj(p))
+    total = np.zeros((6, len(theta)))
+    for n, p in amplitudes.items():
+        total += (p[:, None] * np.exp(1j * n * theta)).real
+    return total[:3], total[3:]
 
 
 def shaft_phasors(shafts: tuple[Shaft, ...], max_order: int, sense: int) -> tuple[np.ndarray, np.ndarray]:

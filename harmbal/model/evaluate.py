@@ -177,8 +177,9 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray, tangential: bool = Fa
             kin, _column([c.piston.mass for c in cylinders]), _column([c.piston.cg_lateral for c in cylinders]),
             small_end))
     if "rotating" in effects:
-        # rotating_rod's load is m·A (= −m·A'', A'' = −A); per unit α it is −m·A'.
-        pin, dpin, _ = crank_pin(psi, r)
+        # rotating_rod's load is m·A (= −m·A'', A'' = −A); per unit α it is −m·A'. The slider-crank has the
+        # crank pin already (the same products: its sines and cosines are the dearest part on a fine grid).
+        pin, dpin = (kin.a, kin.da) if kin is not None else crank_pin(psi, r)[:2]
         planar.append(loads.rotating_rod((-dpin[0], -dpin[1]) if tangential else pin, big_end))
     if "rod_inertia" in effects and model.rod != "two_point":
         lateral = _column([c.rod.cg_lateral for c in cylinders])

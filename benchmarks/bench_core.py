@@ -63,7 +63,7 @@ def main() -> None:
         ("  scene Dataset", median_seconds(lambda: scene_dataset(v8), args.repeat)),
         ("  DataTree of the four groups (labelled.tree)", median_seconds(lambda: tree({}, groups), args.repeat)),
         ("arithmetic floor: evaluate + rFFT of the 6 sums (arrays)", floor),
-        ("order_phasors(V8) (arrays, order domain)", median_seconds(lambda: order_phasors(v8), args.repeat)),
+        ("order_phasors(V8) (arrays, order domain)", median_seconds(lambda: order_phasors(evaluate(v8)), args.repeat)),
         ("verify(inline-3-balanced)", median_seconds(lambda: hb.verify(balanced), args.repeat)),
     ]
     for name in ("v12.toml", "tractor-3cyl.toml"):

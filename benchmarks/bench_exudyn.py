@@ -142,6 +142,8 @@ def array_path(scene):
     it is not found where it used to live."""
     import importlib
 
+    from harmbal.model.evaluate import evaluate
+
     omega2 = float(scene.speeds[0]) ** 2
     for module in ("harmbal.orders.phasors",):
         try:
@@ -150,7 +152,7 @@ def array_path(scene):
             continue
 
         def arrays(order_phasors=order_phasors):
-            p = order_phasors(scene)
+            p = order_phasors(evaluate(scene))
             return p.force[:, 1:3].T * omega2, p.moment[:, 1:3].T * omega2
 
         return arrays, f"{module}.order_phasors"

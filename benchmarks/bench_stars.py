@@ -44,9 +44,10 @@ def scene(engine: str):
 
 
 def _order_phasors(s, n):
+    from harmbal.model.evaluate import evaluate
     from harmbal.orders.phasors import order_phasors
 
-    return order_phasors(s, samples_per_rev=n)
+    return order_phasors(evaluate(s, n))
 
 
 def _stars(s, n):

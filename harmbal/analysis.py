@@ -99,7 +99,7 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     values, order_attrs, gas_values = unit_orders(unit, aliasing, attrs, backend, gas, gas_tail, gas_spectrum)
     orders = orders_dataset(values, order_attrs, speeds, speeds.coords(), constants=gas_values)
     whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders
-    p = order_phasors(scene, unit=unit, backend=backend)
+    p = order_phasors(unit, backend)
     star_attrs = attrs if gas is None else attributes(scene, p.samples_per_rev)  # the stars' grid: the inertia's
     groups = {"scene": scene_dataset(scene), "time": time, "orders": orders,
               "stars": stars_dataset(p, speeds, star_attrs, labels, throw, bank, firing,
@@ -128,7 +128,7 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
     steady = scene.with_effects(scene.model.effects - {"speed_fluctuation"})
     unit = evaluate(steady)
     gas = gas_loads(steady, unit.samples_per_rev)
-    p = order_phasors(steady, unit=unit, backend=backend)
+    p = order_phasors(unit, backend)
     speeds = Speeds(scene.speeds)
     stars = stars_dataset(p, speeds, attributes(steady, p.samples_per_rev), *placement(scene))
     torque = torque_dataset(unit, gas, speeds, attributes(scene, unit.samples_per_rev, gas),

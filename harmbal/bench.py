@@ -140,7 +140,7 @@ def cases(scene) -> list[Case]:
     w2 = scene.speeds[0] ** 2
 
     def order_domain():
-        p = order_phasors(scene)
+        p = order_phasors(evaluate(scene))
         force = p.force_cylinder.sum(axis=0) + p.force_crankshaft
         moment = p.moment_cylinder.sum(axis=0) + p.moment_crankshaft
         return w2 * force.T, w2 * moment.T

@@ -160,11 +160,12 @@ def test_stars_bad_arguments_exit_2(tmp_path, base_scene, capsys, args, message)
 
 def test_stars_verify_failure_exits_1(tmp_path, base_scene, capsys, monkeypatch):
     import harmbal.orders.phasors
+    import harmbal.views.stars
 
     original = harmbal.orders.phasors.order_phasors
 
-    def broken(scene, **kwargs):  # a 0.1 % error in the z force of every cylinder
-        p = original(scene, **kwargs)
+    def broken(*args, **kwargs):  # a 0.1 % error in the z force of every cylinder
+        p = original(*args, **kwargs)
         p.force_cylinder[:, :, 2] *= 1.001
         return p
 

@@ -792,7 +792,6 @@ def test_weight_inertia_changes_joints_not_the_shaking_force():
     # closed form of the change: only the coupler's moment equation gains ΔI·ϑ''. The rocker
     # (a two-force member for the change) takes ΔB along A→B; the coupler's moment about C gives
     # (B − C) × ΔB = ΔI·ϑ'', and ΔC = −ΔB.
-    lever = s1.levers[0]
     bodies, points, _ = mechanism_kinematics(s1, THETA)
     _, _, _, _, w, dw, _ = body_motion(bodies["lever coupler"])
     A, B, C = points["lever: A"], points["lever: B"], points["lever: C"]

@@ -493,7 +493,7 @@ def test_design_per_variant_equals_harmbal_design_of_each_variant_written_out():
         np.testing.assert_array_equal(ds.design_targeted.values, expected.targeted.values)
         scale = np.where(expected.component_units.values == "N", force_scale, moment_scale)
         assert (np.abs(v.design_residual.values - expected.predicted.values) <= 1e-12 * scale).all()
-        verified = order_phasors(designed.scene)
+        verified = order_phasors(evaluate(designed.scene))
         for name, reference, s in (("residual_force", verified.force, force_scale),
                                    ("residual_moment", verified.moment, moment_scale)):
             np.testing.assert_allclose(v[name].values, w2 * reference[:, [0, 1, 2, 3]].T, rtol=0, atol=1e-12 * s,

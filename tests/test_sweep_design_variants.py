@@ -108,7 +108,7 @@ def _assert_equals_design(out, i, scene, huge=False):
     predicted = ds.predicted.values / scene.speeds[0] ** 2
     assert (np.abs(out["residual"][i] - predicted) <= RTOL * scale).all(), "residual"
 
-    verified = order_phasors(d.scene)
+    verified = order_phasors(evaluate(d.scene))
     np.testing.assert_allclose(out["force"][i], verified.force, rtol=0, atol=RTOL * force_scale, err_msg="force")
     np.testing.assert_allclose(out["moment"][i], verified.moment, rtol=0, atol=RTOL * moment_scale, err_msg="moment")
     return d

@@ -141,7 +141,7 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
     co-rotating force and moment (static balance alone with one plane) of the
     rotating masses (throw and crankshaft unbalances, rod big ends, the
     crankshaft's own CG) plus 2f × those of the reciprocating masses."""
-    rot, rec = (order_phasors(s) for s in _factor_scenes(scene))
+    rot, rec = (order_phasors(evaluate(s)) for s in _factor_scenes(scene))
     f = candidate.balance_factor
     target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
     a, rows = _factor_system(candidate, kmax, scene.sense, ref, weights)
@@ -239,7 +239,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     kmax = scene.sampling.max_order
     sense = scene.sense
     ref = np.asarray(scene.reference_point, dtype=float)
-    engine = order_phasors(scene)
+    engine = order_phasors(evaluate(scene))
     force_scale = float(engine.peak_force.sum() + engine.crankshaft_peak_force)
     moment_scale = float(engine.peak_moment.sum() + engine.crankshaft_peak_moment)
     scales = {name: force_scale if group == "force" else moment_scale for name, group in COMPONENTS}

@@ -28,7 +28,7 @@ import cmath
 
 import numpy as np
 
-from ..scene.elements import Shaft
+from ..scene.elements import Shaft, ShaftUnbalance
 
 
 def shaft_amplitudes(shaft: Shaft, sense: int) -> tuple[np.ndarray, np.ndarray]:
@@ -50,6 +50,13 @@ def shaft_amplitudes(shaft: Shaft, sense: int) -> tuple[np.ndarray, np.ndarray]:
     force = np.array([0j, 1j * sense * w_force, w_force])
     moment = np.array([roll, 1j * sense * w_moment, w_moment])
     return force, moment
+
+
+def unbalance_phasors(angle: float, unbalance: float, x: float, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    """First-order force and moment (about the origin) phasors per axis of a
+    static unbalance [kg m] at axial position ``x`` [m] turning with the
+    crank, pointing at ``angle`` [rad]: a shaft at ratio 1 (:func:`shaft_amplitudes`)."""
+    return shaft_amplitudes(Shaft("", 1, 0.0, 0.0, (ShaftUnbalance(unbalance, angle, x),)), sense)
 
 
 def shaft_loads(shafts: tuple[Shaft, ...], theta: np.ndarray, sense: int,

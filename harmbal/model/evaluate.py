@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import loads
-from .balancers import shaft_loads
+from .balancers import shaft_loads, shaft_phasors, unbalance_phasors
 from .kinematics import SliderCrank, crank_pin, slider_crank
 from .linkage import lever_loads
 from .sampling import body_decay_rates, choose_samples, interpolate
@@ -61,6 +61,14 @@ class UnitLoads:
       ``kinetic_energy`` (cylinder, N) [J] its kinetic energy.
     * ``harmonic_orders``: the orders of the crankshaft's single-harmonic
       loads (static unbalances: 1, balance shafts: their |ratio|).
+    * ``phase``, ``bank``, ``x`` (cylinder,): each cylinder's local crank
+      angle offset φ − β and bank angle β [rad] and axial position [m], for
+      the order domain's shift theorem.
+    * ``unbalance_phasors``: the closed-form first-order force and moment
+      phasors (about the origin) of each cylinder's throw unbalances,
+      (cylinder, axis) each; ``crankshaft_phasors``: those of the
+      crankshaft's own unbalances and the balance shafts, (axis, order 0 …
+      max_order) each; None for a ``tangential`` evaluation.
     """
 
     theta: np.ndarray
@@ -85,6 +93,11 @@ class UnitLoads:
     decay_rates: np.ndarray
     drive_torque: np.ndarray
     kinetic_energy: np.ndarray
+    phase: np.ndarray
+    bank: np.ndarray
+    x: np.ndarray
+    unbalance_phasors: tuple[np.ndarray, np.ndarray] | None
+    crankshaft_phasors: tuple[np.ndarray, np.ndarray] | None
     harmonic_orders: tuple[int, ...] = ()
 
     @property
@@ -364,6 +377,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
     harmonic = [1] if "rotating" in effects and scene.crankshaft_unbalances else []
     if "balancers" in effects:
         harmonic += [abs(shaft.ratio) for shaft in scene.shafts]
+    unbalances, crankshaft = (None, None) if tangential else _element_phasors(scene, throw)
     return UnitLoads(
         theta=theta, reference_point=ref, sense=sense, max_order=scene.sampling.max_order,
         cylinder_type=kind, type_planar=type_planar,
@@ -375,8 +389,36 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
         crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
         lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
-        kinetic_energy=kinetic_energy, harmonic_orders=tuple(harmonic),
+        kinetic_energy=kinetic_energy, phase=throw - bank, bank=bank, x=x, unbalance_phasors=unbalances,
+        crankshaft_phasors=crankshaft, harmonic_orders=tuple(harmonic),
     )
+
+
+def _element_phasors(scene: Scene, throw: np.ndarray):
+    """The closed-form order phasors at unit speed, about the origin, of the
+    throw unbalances (cylinder, axis) and of the crankshaft's unbalances and
+    balance shafts (axis, order): see :class:`UnitLoads`."""
+    sense, effects, kmax = scene.sense, scene.model.effects, scene.sampling.max_order
+    cyls = scene.cylinders
+    throw_force = np.zeros((len(cyls), 3), dtype=complex)
+    throw_moment = np.zeros((len(cyls), 3), dtype=complex)
+    crank_force = np.zeros((3, kmax + 1), dtype=complex)
+    crank_moment = np.zeros((3, kmax + 1), dtype=complex)
+    if "rotating" in effects:
+        for i, c in enumerate(cyls):
+            for u in c.throw_unbalances:
+                f, m = unbalance_phasors(throw[i] + u.angle, u.unbalance, u.x, sense)
+                throw_force[i] += f
+                throw_moment[i] += m
+        for u in scene.crankshaft_unbalances:
+            f, m = unbalance_phasors(u.angle, u.unbalance, u.x, sense)
+            crank_force[:, 1] += f
+            crank_moment[:, 1] += m
+    if "balancers" in effects and scene.shafts:
+        shaft_force, shaft_moment = shaft_phasors(scene.shafts, kmax, sense)
+        crank_force += shaft_force
+        crank_moment += shaft_moment
+    return (throw_force, throw_moment), (crank_force, crank_moment)
 
 
 def moment_about(point: np.ndarray, force: np.ndarray, moment: np.ndarray) -> np.ndarray:

@@ -24,11 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.elements import Shaft, ShaftUnbalance
-from ..model.balancers import shaft_amplitudes, shaft_phasors
+from ..model.evaluate import UnitLoads, moment_about
 from .spectrum import aliasing_estimate, phasors
-from ..scene import Scene
-from ..model.evaluate import UnitLoads, evaluate, moment_about
 
 
 @dataclass(frozen=True)
@@ -77,42 +74,29 @@ class OrderPhasors:
         return self.moment_cylinder.sum(axis=0) + self.moment_crankshaft
 
 
-def _unbalance_phasors(angle: float, u, sense: int) -> tuple[np.ndarray, np.ndarray]:
-    """First-order force and moment (about the origin) phasors per axis of a
-    static unbalance ``u`` turning with the crank on its axis, pointing at
-    ``angle``: a shaft at ratio 1 (:func:`harmbal.model.balancers.shaft_amplitudes`)."""
-    return shaft_amplitudes(Shaft("", 1, 0.0, 0.0, (ShaftUnbalance(u.unbalance, angle, u.x),)), sense)
-
-
-def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy",
-                  unit: UnitLoads | None = None) -> OrderPhasors:
+def order_phasors(unit: UnitLoads, backend: str = "scipy") -> OrderPhasors:
     """Per-cylinder order phasors at unit speed by the shift theorem.
 
     Parameters
     ----------
-    scene : Scene
-        From :func:`harmbal.load_scene` (placement, unbalances and elements,
-        which have closed-form phasors).
-    samples_per_rev : int, optional
-        Samples of each single-cylinder spectrum; default as the time domain
-        (:func:`harmbal.model.sampling.choose_samples`).
+    unit : UnitLoads
+        The scene's evaluation (:func:`harmbal.model.evaluate.evaluate`, at
+        the samples per revolution of each single-cylinder spectrum): its
+        type samples, placement, closed-form element phasors, lever samples
+        and bounds.
     backend : {"scipy", "numpy", "pyfftw"}
         FFT implementation.
-    unit : UnitLoads, optional
-        The scene's evaluation (:func:`harmbal.model.evaluate.evaluate`), if
-        already made: its type samples, lever samples and bounds are reused.
 
     Returns
     -------
     OrderPhasors
     """
-    if unit is None:
-        unit = evaluate(scene, samples_per_rev)
+    if unit.crankshaft_phasors is None:
+        raise ValueError("order_phasors needs the loads per ω² (an evaluation that is not tangential)")
     n = unit.samples_per_rev
-    kmax = scene.sampling.max_order
-    sense = scene.sense
-    cyls = scene.cylinders
-    ncyl = len(cyls)
+    kmax = unit.max_order
+    sense = unit.sense
+    ncyl = unit.phase.size
     order = np.arange(kmax + 1)
     group = unit.cylinder_type
 
@@ -124,9 +108,9 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
         spectrum = phasors(unit.type_planar, backend)
         tail = aliasing_estimate(np.abs(spectrum), n, kmax)
         a, b, roll = (spectrum[group, j, : kmax + 1] for j in range(3))
-        bank = np.array([c.bank for c in cyls])[:, None]
-        shift = np.exp(1j * order * (np.array([c.throw for c in cyls])[:, None] - bank))
-        x = np.array([c.x for c in cyls])[:, None]
+        bank = unit.bank[:, None]
+        shift = np.exp(1j * order * unit.phase[:, None])
+        x = unit.x[:, None]
         fz = (a * np.cos(bank) - b * np.sin(bank)) * shift
         ft = (a * np.sin(bank) + b * np.cos(bank)) * shift
         force[:, 1] = -sense * ft
@@ -137,22 +121,10 @@ def order_phasors(scene: Scene, *, samples_per_rev: int | None = None, backend: 
         alias_force += np.hypot(tail[:, 0], tail[:, 1])[group]
         alias_roll += tail[:, 2][group]
 
-    crank_force = np.zeros((3, kmax + 1), dtype=complex)
-    crank_moment = np.zeros((3, kmax + 1), dtype=complex)
-    if "rotating" in scene.model.effects:
-        for i, c in enumerate(cyls):
-            for u in c.throw_unbalances:
-                f, m = _unbalance_phasors(c.throw + u.angle, u, sense)
-                force[i, :, 1] += f
-                moment[i, :, 1] += m
-        for u in scene.crankshaft_unbalances:
-            f, m = _unbalance_phasors(u.angle, u, sense)
-            crank_force[:, 1] += f
-            crank_moment[:, 1] += m
-    if "balancers" in scene.model.effects and scene.shafts:
-        shaft_force, shaft_moment = shaft_phasors(scene.shafts, kmax, sense)
-        crank_force += shaft_force
-        crank_moment += shaft_moment
+    # The throw unbalances and the crankshaft's elements, in closed form.
+    force[:, :, 1] += unit.unbalance_phasors[0]
+    moment[:, :, 1] += unit.unbalance_phasors[1]
+    crank_force, crank_moment = (p.copy() for p in unit.crankshaft_phasors)
 
     ref = unit.reference_point
     lever_alias_force = lever_alias_moment = 0.0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..labelled import AXES, Speeds, dataset
+from ..model.evaluate import evaluate
 from ..orders.phasors import OrderPhasors, order_phasors
 from ..orders.spectrum import BALANCED_RTOL, ROTATION, is_balanced, rotating_split
 from ..orders.stars import crank_stars
@@ -56,7 +57,7 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         * ``firing_angle`` (cylinder) [rad], ``firing_sequence`` and
           ``firing_interval`` [rad] (firing).
     """
-    p = order_phasors(scene, samples_per_rev=samples_per_rev, backend=backend)
+    p = order_phasors(evaluate(scene, samples_per_rev), backend)
     return stars_dataset(p, Speeds(scene.speeds), attributes(scene, p.samples_per_rev), *placement(scene))
 
 
@@ -192,7 +193,7 @@ def verify_orders(scene: Scene, *, backend: str = "scipy"):
     from .time import simulate
 
     scene = scene.with_effects(scene.model.effects - {"gas"})
-    p = order_phasors(scene, backend=backend)
+    p = order_phasors(evaluate(scene), backend)
     time = order_spectrum(simulate(scene, samples_per_rev=p.samples_per_rev), backend=backend)
     speeds = Speeds(scene.speeds)
     lead, w2, coords = speeds.lead, speeds.w2, speeds.coords()

@@ -129,11 +129,10 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
     unit = evaluate(steady)
     gas = gas_loads(steady, unit.samples_per_rev)
     p = order_phasors(unit, backend)
-    speeds = Speeds(scene.speeds)
-    stars = stars_dataset(p, speeds, attributes(steady, p.samples_per_rev), *placement(scene))
-    torque = torque_dataset(unit, gas, speeds, attributes(scene, unit.samples_per_rev, gas),
-                            [c.label for c in scene.cylinders], _crank_radius(scene), flywheel=scene.flywheel,
-                            backend=backend)
+    speeds, (labels, throw, bank, firing) = Speeds(scene.speeds), placement(scene)
+    stars = stars_dataset(p, speeds, attributes(steady, p.samples_per_rev), labels, throw, bank, firing)
+    torque = torque_dataset(unit, gas, speeds, attributes(scene, unit.samples_per_rev, gas), labels,
+                            _crank_radius(scene), flywheel=scene.flywheel, backend=backend)
     return _tree(scene, {"scene": scene_dataset(scene), "time": time, "orders": order_spectrum(time, backend=backend),
                          "stars": stars, "torque": torque}, backend)
 

@@ -13,7 +13,7 @@ from .orders.phasors import order_phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
 from .views.stars import placement, stars_dataset
-from .views.time import attributes, body_aliasing, body_moments, gas_phasors, time_dataset
+from .views.time import attributes, body_aliasing, body_moments, cycle_loads, gas_phasors, time_dataset
 from .views.torque import torque_dataset
 
 
@@ -94,8 +94,10 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     # What the views read of the scene besides the evaluation: speeds, shared attributes, the cylinders' placement.
     speeds, attrs = Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas)
     labels, throw, bank, firing = placement(scene)
+    # The inertia's totals and mass torque on the gas cycle's grid, once for /time and /torque.
+    cycle = None if gas is None else cycle_loads(unit, gas, moments)
     time = time_dataset(unit, speeds, attrs, labels=labels if per_cylinder else None, moments=moments,
-                        aliasing=aliasing, gas=gas, gas_tail=gas_tail, backend=backend)
+                        aliasing=aliasing, gas=gas, gas_tail=gas_tail, cycle=cycle, backend=backend)
     values, order_attrs, gas_values = unit_orders(unit, aliasing, attrs, backend, gas, gas_tail, gas_spectrum)
     orders = orders_dataset(values, order_attrs, speeds, speeds.coords(), constants=gas_values)
     whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders
@@ -106,7 +108,8 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
                                      totals=(values["force"][whole].T, values["moment"][whole].T))}
     if gas is not None:
         groups["torque"] = torque_dataset(unit, gas, speeds, attrs, labels, _crank_radius(scene),
-                                          flywheel=scene.flywheel, backend=backend, spectrum=gas_spectrum)
+                                          flywheel=scene.flywheel, backend=backend, spectrum=gas_spectrum,
+                                          mass_torque=cycle[2])
     return _tree(scene, groups, backend)
 
 

@@ -105,3 +105,29 @@ def test_a_fast_shaft_in_the_tail_band_is_not_taken_for_aliasing():
     for q in ("force", "moment"):
         error = np.abs(orders[q] - fine[q]).max().item() / orders[f"{q}_scale"].max().item()
         assert error <= orders.attrs["accuracy_reached"] <= 1e-13, q
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_one_spectrums_estimate_is_the_vectorised_one(seed):
+    """The aliasing estimate of a single spectrum (computed in Python floats)
+    against the same spectrum estimated among others (numpy, vectorised):
+    the same to round-off, with and without the geometry's slowest rate,
+    on decaying, flat-tailed and empty tail bands."""
+    from harmbal.orders.spectrum import aliasing_estimate
+
+    rng = np.random.default_rng(seed)
+    for case in range(300):
+        samples = int(rng.integers(16, 3000))
+        max_order = int(rng.integers(1, samples // 4))
+        magnitudes = rng.uniform(0.2, 0.99) ** np.arange(samples // 2 + 1) * rng.uniform(0.5, 2, samples // 2 + 1)
+        if case % 7 == 0:
+            magnitudes[samples // 4:] = 0.0
+        if case % 11 == 0:
+            magnitudes[samples // 4:] = magnitudes[samples // 4]
+        slowest = 0.0 if case % 2 else float(rng.uniform(0.1, 0.99))
+        pair = np.stack([magnitudes, np.ones_like(magnitudes)])
+        one = aliasing_estimate(magnitudes[None], samples, max_order, slowest)
+        assert one.shape == (1,)
+        # Round-off: the fitted rate's last bits, raised to a power below the sample count.
+        expected = aliasing_estimate(pair, samples, max_order, slowest)[0]
+        assert one[0] == pytest.approx(expected, rel=samples * 1e-15, abs=0)

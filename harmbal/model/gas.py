@@ -17,6 +17,7 @@ half orders.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -187,8 +188,7 @@ def _evaluate(loads: np.ndarray, c, cycle: int, series: int | None, theta: np.nd
     ``c`` over the cycle ``theta``; return its swept volume."""
     gas, revolutions = c.gas, theta.size // samples_per_rev
     # The slider-crank repeats every revolution: evaluated over one.
-    travel, dtravel = _piston_travel(theta[:samples_per_rev] + c.throw - c.bank, c.crank_radius, c.rod_length,
-                                     c.offset, series)
+    travel, dtravel = _piston_travel(c.throw - c.bank, samples_per_rev, c.crank_radius, c.rod_length, c.offset, series)
     loads[0] = cylinder_pressure(gas, c.crank_radius, c.rod_length, c.offset, cycle, theta - firing_angle)
     loads[1] = (loads[0] - gas.crankcase_pressure) * gas.piston_area
     # Each revolution's rows times the one revolution of the slider-crank (no tiled copies).
@@ -204,16 +204,33 @@ def _same_loads(a, b) -> bool:
             and (a.gas is b.gas or a.gas == b.gas))  # usually the same object: no field-by-field comparison
 
 
-def _piston_travel(psi: np.ndarray, r: float, l: float, e: float, series: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """Piston-pin travel c_B and dc_B/dψ, the same values as
+def _piston_travel(start: float, samples: int, r: float, l: float, e: float,
+                   series: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Piston-pin travel c_B and dc_B/dψ at ψ = ``start`` + 2πj/``samples``,
+    j = 0 … samples − 1, the same values to round-off as
     :func:`~harmbal.model.kinematics.slider_crank`'s ``b`` and ``db``: of the
     exact closure c_B = r cos ψ + √(l² − g²), g = e − r sin ψ, computed here
-    without the second derivatives and the rod's angle, which cost three times
-    as much on the gas grid; of the series model through ``slider_crank``."""
+    without the second derivatives and the rod's angle, and with cos ψ and
+    sin ψ by the angle-sum formulae from the grid's cached ones (a sine and a
+    cosine of every sample cost three times the rest); of the series model
+    through ``slider_crank``."""
     if series is not None:
-        kin = slider_crank(psi, r, l, e, series)
+        kin = slider_crank(start + 2 * np.pi * np.arange(samples) / samples, r, l, e, series)
         return kin.b, kin.db
-    cos, sin = r * np.cos(psi), r * np.sin(psi)
+    cos_grid, sin_grid = _revolution(samples)
+    cos_start, sin_start = r * math.cos(start), r * math.sin(start)
+    cos = cos_grid * cos_start - sin_grid * sin_start
+    sin = sin_grid * cos_start + cos_grid * sin_start
     g = e - sin
     root = np.sqrt(l * l - g * g)
     return cos + root, -sin + g * cos / root
+
+
+@functools.lru_cache(maxsize=8)
+def _revolution(samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """cos θ and sin θ at θ = 2πj/``samples``, j = 0 … samples − 1 (read-only)."""
+    theta = 2 * np.pi * np.arange(samples) / samples
+    trig = np.cos(theta), np.sin(theta)
+    for values in trig:
+        values.flags.writeable = False
+    return trig

@@ -72,6 +72,24 @@ def body_moments(unit: UnitLoads) -> tuple[np.ndarray, np.ndarray]:
             moment_about(unit.reference_point, force, moment))
 
 
+def totals(unit: UnitLoads, moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Total force and moment about the reference point (axis, angle) of
+    one evaluation; ``moments`` = :func:`body_moments` if already computed."""
+    moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
+    crank_force, _ = unit.crankshaft()
+    return unit.force_cylinder.sum(axis=0) + crank_force, moment_cyl.sum(axis=0) + moment_crank
+
+
+def cycle_loads(unit: UnitLoads, gas: GasLoads, moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray,
+                                                                                        np.ndarray]:
+    """The inertia's :func:`totals` (axis, M) and the moving parts' drive
+    torque (M,) on the gas cycle's grid (:meth:`GasLoads.on_cycle`), for
+    /time and /torque: one interpolation for the seven rows."""
+    force, moment = totals(unit, moments)
+    cycle = gas.on_cycle(np.concatenate([force, moment, unit.drive_torque.sum(axis=0, keepdims=True)]))
+    return cycle[:3], cycle[3:6], cycle[6]
+
+
 def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Aliasing estimates per axis (force, moment) of the orders ≤
     ``max_order``, summed over the cylinders and the crankshaft without
@@ -138,40 +156,44 @@ def gas_phasors(gas: GasLoads, max_order: int, backend: str = "scipy") -> tuple[
     rows, position = gas.templates
     spectrum = phasors(gas.torque[rows], backend)
     m, count = gas.theta.size, gas.revolutions * max_order + 1
-    # e^{−2πiks/M} read from the M-th roots of unity: the same to round-off as the exponential, at a third of its cost.
-    orders = spectrum[position, :count] * _roots_of_unity(m)[np.multiply.outer(gas.shift, np.arange(count)) % m]
-    tail = aliasing_estimate(np.abs(spectrum), m, count - 1) @ np.bincount(position)
+    orders = spectrum[position, :count] * _shift_factors(m, tuple(gas.shift.tolist()), count)
+    tail = aliasing_estimate(np.abs(spectrum), m, count - 1)[position].sum()
     return orders, np.array([tail, 0.0, 0.0])
 
 
-@functools.lru_cache(maxsize=4)
-def _roots_of_unity(m: int) -> np.ndarray:
-    """e^{−2πij/M}, j = 0 … M − 1 (read-only)."""
+@functools.lru_cache(maxsize=16)
+def _shift_factors(m: int, shift: tuple[int, ...], count: int) -> np.ndarray:
+    """e^{−2πiks/M} for each shift s (cylinder) and order k < ``count``
+    (read-only; cached like the firing stars: a scene's shifts do not change
+    between its analyses), read from the M-th roots of unity: the same to
+    round-off as the exponential, at a third of its cost."""
     roots = np.exp(-2j * np.pi * np.arange(m) / m)
-    roots.flags.writeable = False
-    return roots
+    factors = roots[np.multiply.outer(np.array(shift), np.arange(count)) % m]
+    factors.flags.writeable = False
+    return factors
 
 
 def time_dataset(unit: UnitLoads, speeds: Speeds, attrs: dict, *, labels: list[str] | None = None, moments=None,
-                 aliasing=None, gas: GasLoads | None = None, gas_tail=None, backend: str = "scipy"):
+                 aliasing=None, gas: GasLoads | None = None, gas_tail=None, cycle=None, backend: str = "scipy"):
     """The time-domain Dataset of one evaluation (see :func:`simulate`) at
     ``speeds``, with the Dataset's ``attrs`` (:func:`attributes`); each
     cylinder's loads too, under the cylinder ``labels``, if given.
-    ``moments`` = :func:`body_moments`, ``aliasing`` = :func:`body_aliasing`
-    and ``gas_tail`` = :func:`gas_aliasing` if already computed; ``gas`` the
-    gas loads if simulated (on the cycle's grid, onto which ``unit``'s
-    revolution is interpolated and repeated: :meth:`GasLoads.on_cycle`)."""
+    ``moments`` = :func:`body_moments`, ``aliasing`` = :func:`body_aliasing`,
+    ``gas_tail`` = :func:`gas_aliasing` and ``cycle`` = :func:`cycle_loads`
+    if already computed; ``gas`` the gas loads if simulated (on the cycle's
+    grid, onto which ``unit``'s revolution is interpolated and repeated:
+    :meth:`GasLoads.on_cycle`)."""
     per_cylinder = labels is not None
-    moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
-    crank_force, _ = unit.crankshaft()
-    force = unit.force_cylinder.sum(axis=0) + crank_force
-    moment = moment_cyl.sum(axis=0) + moment_crank
-    alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moments=(moment_cyl, moment_crank))
+    moments = moments if moments is not None else body_moments(unit)
+    moment_cyl = moments[0]
+    alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moments=moments)
     # Speed-independent parts (gas) of the moment, its scale and aliasing estimate; the inertia repeats each turn.
     theta, force_cyl, extra = unit.theta, unit.force_cylinder, {}
-    if gas is not None:
+    if gas is None:
+        force, moment = totals(unit, moments)
+    else:
         theta = gas.theta
-        force, moment = gas.on_cycle(np.stack([force, moment]))
+        force, moment, _ = cycle if cycle is not None else cycle_loads(unit, gas, moments)
         if per_cylinder:
             force_cyl, moment_cyl = gas.on_cycle(np.stack([force_cyl, moment_cyl]))
         extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,

@@ -40,7 +40,7 @@ def _firing_stars(firing_angle: tuple[float, ...], max_order: int, revolutions: 
 
 def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, labels: list[str],
                    crank_radius: np.ndarray, *, flywheel: Flywheel | None = None, backend: str = "scipy",
-                   spectrum=None):
+                   spectrum=None, mass_torque=None):
     """Pressure, gas torque, mass torque and their orders over the cycle.
 
     Parameters
@@ -63,6 +63,10 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
     spectrum : ndarray, optional
         The gas torque's phasors (:func:`harmbal.views.time.gas_phasors`),
         if already computed.
+    mass_torque : ndarray, optional
+        The moving parts' drive torque on the cycle's grid at ω = 1 rad/s
+        (the last of :func:`harmbal.views.time.cycle_loads`), if already
+        computed.
 
     Returns
     -------
@@ -102,7 +106,8 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
     ncyl = len(labels)
 
     # The mass torque repeats every revolution; over the cycle it has whole orders only.
-    mass_torque = gas.on_cycle(unit.drive_torque.sum(axis=0))
+    if mass_torque is None:
+        mass_torque = gas.on_cycle(unit.drive_torque.sum(axis=0))
     gas_spectrum = gas_phasors(gas, kmax, backend)[0] if spectrum is None else spectrum
     gas_total = gas_spectrum.sum(axis=0)
     # Each cylinder's mass torque over the cycle: whole orders only.

@@ -195,6 +195,20 @@ def test_each_cylinders_gas_torque_is_its_own_trace_at_its_firing_tdc(name):
                                    atol=1e-12 * float(np.abs(expected).max()))
 
 
+def test_a_cylinder_without_gas_has_none():
+    """Only cylinders 1 and 3 have a [gas] table: 2 and 4 get zero pressure,
+    force, torque and volume (never left unset), 1 and 3 the loads they have
+    when every cylinder fires."""
+    table = {"bore": "86 mm", "crankcase_pressure": "1 bar", "trace": _trace()}
+    cylinders = [dict(c, gas=table) if c["label"] in "13" else c for c in INLINE_4]
+    some = hb.analyse(_scene(cylinders, gas=False))["torque"].ds
+    every = hb.analyse(_scene(INLINE_4))["torque"].ds
+    for name in ("pressure", "gas_force", "gas_torque", "volume"):
+        np.testing.assert_array_equal(some[name].values[[1, 3]], 0.0)
+        np.testing.assert_array_equal(some[name].values[[0, 2]], every[name].values[[0, 2]])
+    assert np.isnan(some.imep.values[[1, 3]]).all()
+
+
 def test_imep_is_the_cycle_work_over_the_swept_volume():
     """IMEP from the mean gas torque equals ∮p dV / V_s computed here on a fine grid."""
     scene = _scene(SINGLE)

@@ -19,12 +19,14 @@ from .time import gas_phasors
 MAJOR_RTOL = 1e-9
 
 
-def firing_stars(firing_angle, max_order: int, revolutions: int) -> tuple[np.ndarray, np.ndarray]:
-    """Arms k·θ_f,i mod 2π of the firing star of each order k = 0 …
-    ``max_order`` in steps of 1/``revolutions`` (order, cylinder) and its
-    resultant |Σ e^{−ikθ_f,i}| (order,): the factor by which the cylinders'
-    equal torque harmonics add up (the number of cylinders for a major order,
-    0 for one that cancels). Cached like the crank stars (read-only arrays)."""
+def firing_stars(firing_angle, max_order: int, revolutions: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                           np.ndarray]:
+    """The orders k = 0 … ``max_order`` in steps of 1/``revolutions``
+    (order,), the arms k·θ_f,i mod 2π of each order's firing star (order,
+    cylinder), its resultant |Σ e^{−ikθ_f,i}| (order,): the factor by which
+    the cylinders' equal torque harmonics add up (the number of cylinders for
+    a major order, 0 for one that cancels), and whether the order is major
+    (order,). Cached like the crank stars (read-only arrays)."""
     return _firing_stars(tuple(map(float, firing_angle)), int(max_order), int(revolutions))
 
 
@@ -33,9 +35,10 @@ def _firing_stars(firing_angle: tuple[float, ...], max_order: int, revolutions: 
     order = np.arange(revolutions * max_order + 1) / revolutions
     arms = np.mod(np.multiply.outer(order, np.array(firing_angle)), 2 * np.pi)
     resultant = np.abs(np.exp(-1j * arms).sum(axis=-1))
-    for array in (arms, resultant):
+    major = is_balanced(resultant - len(firing_angle), len(firing_angle), MAJOR_RTOL)
+    for array in (order, arms, resultant, major):
         array.flags.writeable = False
-    return arms, resultant
+    return order, arms, resultant, major
 
 
 def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, labels: list[str],
@@ -101,9 +104,8 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
     """
     kmax = unit.max_order
     revs = gas.revolutions
-    count = revs * kmax + 1
-    order = np.arange(count) / revs
-    ncyl = len(labels)
+    order, arms, resultant, major = firing_stars(gas.firing_angle, kmax, revs)
+    count = order.size
 
     # The mass torque repeats every revolution; over the cycle it has whole orders only.
     if mass_torque is None:
@@ -111,13 +113,11 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
     gas_spectrum = gas_phasors(gas, kmax, backend)[0] if spectrum is None else spectrum
     gas_total = gas_spectrum.sum(axis=0)
     # Each cylinder's mass torque over the cycle: whole orders only.
-    mass_cylinder = np.zeros((ncyl, count), dtype=complex)
+    mass_cylinder = np.zeros((len(labels), count), dtype=complex)
     mass_cylinder[:, ::revs] = phasors(unit.drive_torque, backend)[:, : kmax + 1]
     mass_spectrum = mass_cylinder.sum(axis=0)
     work = 2 * np.pi * revs * gas_spectrum[:, 0].real  # ∫T dθ over the cycle = ∮(p − p_crankcase) dV
     imep = np.divide(work, gas.swept_volume, out=np.full_like(work, np.nan), where=gas.swept_volume > 0)
-    arms, resultant = firing_stars(gas.firing_angle, kmax, revs)
-    major = is_balanced(resultant - ncyl, ncyl, MAJOR_RTOL)
 
     coords = speeds.coords()
     coords.update({

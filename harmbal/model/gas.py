@@ -220,7 +220,7 @@ def _piston_travel(start: float, samples: int, r: float, l: float, e: float,
     cosine of every sample cost three times the rest); of the series model
     through ``slider_crank``."""
     if series is not None:
-        kin = slider_crank(start + 2 * np.pi * np.arange(samples) / samples, r, l, e, series)
+        kin = slider_crank(start + _cycle_angles(samples, samples), r, l, e, series)
         return kin.b, kin.db
     cos_grid, sin_grid = _revolution(samples)
     cos_start, sin_start = r * math.cos(start), r * math.sin(start)

@@ -95,7 +95,7 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     speeds, attrs = Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas)
     labels, throw, bank, firing = placement(scene)
     # The inertia's totals and mass torque on the gas cycle's grid, once for /time and /torque.
-    cycle = None if gas is None else cycle_loads(unit, gas, moments)
+    cycle = None if gas is None else cycle_loads(unit, gas)
     time = time_dataset(unit, speeds, attrs, labels=labels if per_cylinder else None, moments=moments,
                         aliasing=aliasing, gas=gas, gas_tail=gas_tail, cycle=cycle, backend=backend)
     values, order_attrs, gas_values = unit_orders(unit, aliasing, attrs, backend, gas, gas_tail, gas_spectrum)

@@ -72,20 +72,12 @@ def body_moments(unit: UnitLoads) -> tuple[np.ndarray, np.ndarray]:
             moment_about(unit.reference_point, force, moment))
 
 
-def totals(unit: UnitLoads, moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Total force and moment about the reference point (axis, angle) of
-    one evaluation; ``moments`` = :func:`body_moments` if already computed."""
-    moment_cyl, moment_crank = moments if moments is not None else body_moments(unit)
-    crank_force, _ = unit.crankshaft()
-    return unit.force_cylinder.sum(axis=0) + crank_force, moment_cyl.sum(axis=0) + moment_crank
-
-
-def cycle_loads(unit: UnitLoads, gas: GasLoads, moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray,
-                                                                                        np.ndarray]:
-    """The inertia's :func:`totals` (axis, M) and the moving parts' drive
-    torque (M,) on the gas cycle's grid (:meth:`GasLoads.on_cycle`), for
-    /time and /torque: one interpolation for the seven rows."""
-    force, moment = totals(unit, moments)
+def cycle_loads(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The inertia's total force and moment about the reference point
+    (:meth:`UnitLoads.total`, (axis, M)) and the moving parts' drive torque
+    (M,) on the gas cycle's grid (:meth:`GasLoads.on_cycle`), for /time and
+    /torque: one interpolation for the seven rows."""
+    force, moment = unit.total()
     cycle = gas.on_cycle(np.concatenate([force, moment, unit.drive_torque.sum(axis=0, keepdims=True)]))
     return cycle[:3], cycle[3:6], cycle[6]
 
@@ -190,10 +182,10 @@ def time_dataset(unit: UnitLoads, speeds: Speeds, attrs: dict, *, labels: list[s
     # Speed-independent parts (gas) of the moment, its scale and aliasing estimate; the inertia repeats each turn.
     theta, force_cyl, extra = unit.theta, unit.force_cylinder, {}
     if gas is None:
-        force, moment = totals(unit, moments)
+        force, moment = unit.total()
     else:
         theta = gas.theta
-        force, moment, _ = cycle if cycle is not None else cycle_loads(unit, gas, moments)
+        force, moment, _ = cycle if cycle is not None else cycle_loads(unit, gas)
         if per_cylinder:
             force_cyl, moment_cyl = gas.on_cycle(np.stack([force_cyl, moment_cyl]))
         extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,

@@ -74,7 +74,8 @@ def rotating_split(z: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray
 #: Round-off of the model and the FFT in units of ε·max|C| (measured against the 50-digit
 #: reference: up to 1.7 on the bundled engines, tests/test_sampling.py).
 ROUND_OFF = 4
-_ROUND_OFF_FLOOR = ROUND_OFF * float(np.finfo(float).eps)
+#: The aliasing estimate's floor, ROUND_OFF·ε, per unit of the spectrum's largest magnitude.
+ROUND_OFF_FLOOR = ROUND_OFF * float(np.finfo(float).eps)
 
 
 def aliasing_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slowest_rate=0.0) -> np.ndarray:
@@ -109,7 +110,7 @@ def aliasing_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slow
         fitted, extrapolated = np.maximum(fitted, slowest_rate), extrapolated * np.where(
             slowest_rate > fitted, (np.maximum(samples - max_order, i2) / i2) ** 3, 1.0)
     extrapolated = extrapolated * fitted ** np.maximum(samples - max_order - i2, 0)
-    return np.maximum(extrapolated, _ROUND_OFF_FLOOR * magnitudes.max(axis=-1))
+    return np.maximum(extrapolated, ROUND_OFF_FLOOR * magnitudes.max(axis=-1))
 
 
 def _one_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slowest_rate: float, p1: int, p2: int) -> float:
@@ -126,7 +127,7 @@ def _one_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slowest_
     if slowest_rate > fitted:
         fitted, extrapolated = slowest_rate, extrapolated * (max(samples - max_order, i2) / i2) ** 3
     extrapolated *= fitted ** max(samples - max_order - i2, 0)
-    return max(extrapolated, _ROUND_OFF_FLOOR * float(magnitudes.max()))
+    return max(extrapolated, ROUND_OFF_FLOOR * float(magnitudes.max()))
 
 
 def is_balanced(amplitude, scale, rtol: float = BALANCED_RTOL):

@@ -11,7 +11,7 @@ from ..labelled import AXES, CONVENTIONS, Speeds, dataset
 from ..model.evaluate import UnitLoads, evaluate, moment_about
 from ..model.gas import GasLoads, gas_loads
 from ..model.sampling import choose_samples, inertia_samples, simulates_gas
-from ..orders.spectrum import ROUND_OFF, aliasing_estimate, phasors
+from ..orders.spectrum import ROUND_OFF_FLOOR, aliasing_estimate, phasors
 from ..scene import EFFECTS, Scene
 
 
@@ -115,7 +115,7 @@ def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None
     if lines:
         crank = magnitudes[-1].copy()
         crank[:, lines] = 0.0
-        floor = ROUND_OFF * np.finfo(float).eps * magnitudes[-1].max(axis=-1)
+        floor = ROUND_OFF_FLOOR * magnitudes[-1].max(axis=-1)
         tails[-1] = np.maximum(aliasing_estimate(crank, n, unit.max_order, slowest[-1]), floor)
     tail = tails.sum(axis=0)
     return tail[:3], tail[3:]

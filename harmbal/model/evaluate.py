@@ -15,6 +15,7 @@ speed scale exactly with ω², so one evaluation serves every speed.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -196,7 +197,7 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray, tangential: bool = Fa
         planar.append(loads.rotating_rod((-dpin[0], -dpin[1]) if tangential else pin, big_end))
     if "rod_inertia" in effects and model.rod != "two_point":
         lateral = _column([c.rod.cg_lateral for c in cylinders])
-        off_axis = model.rod == "rigid" and bool(np.any(lateral))
+        off_axis = model.rod == "rigid" and any(c.rod.cg_lateral for c in cylinders)
         planar.append(loads.rod_inertia(kin, rod_mass, rod_cg, lateral,
                                         _column([c.rod.inertia for c in cylinders]), l, off_axis))
     if not planar:
@@ -222,16 +223,19 @@ def _phase_rows(delta: np.ndarray, kind: np.ndarray, samples: int):
     Returns the rows' (type, offset [rad]) and, per cylinder, its row and m_i.
     Every type has its row at offset 0 (the type's own spectrum).
     """
-    steps = np.asarray(delta, dtype=float) * samples / (2 * np.pi)
-    nearest = np.round(steps)
-    on = np.abs(steps - nearest) <= ON_GRID * np.maximum(np.abs(steps), 1.0)
-    whole = np.where(on, nearest, np.floor(steps))
-    offset = np.where(on, 0.0, np.asarray(delta) - 2 * np.pi * whole / samples)
-    keys: dict[tuple[int, float], int] = {(int(t), 0.0): int(t) for t in np.unique(kind)}
+    # In Python floats: a handful of cylinders, where numpy's per-call cost is most of the work. The
+    # operations are numpy's elementwise ones in the same order (Python's round and % are numpy's too).
+    keys: dict[tuple[int, float], int] = {(t, 0.0): t for t in sorted(set(kind.tolist()))}
     row = np.empty(len(kind), dtype=int)
-    for i, (t, f) in enumerate(zip(kind, offset)):
-        row[i] = keys.setdefault((int(t), float(f)), len(keys))
-    return list(keys), row, whole.astype(int) % samples  # keys in the order of their row indices
+    shift = np.empty(len(kind), dtype=int)
+    for i, (d, t) in enumerate(zip(np.asarray(delta, dtype=float).tolist(), kind.tolist())):
+        steps = d * samples / (2 * math.pi)
+        nearest = round(steps)
+        on = abs(steps - nearest) <= ON_GRID * max(abs(steps), 1.0)
+        whole = nearest if on else math.floor(steps)
+        row[i] = keys.setdefault((t, 0.0 if on else d - 2 * math.pi * whole / samples), len(keys))
+        shift[i] = whole % samples
+    return list(keys), row, shift  # keys in the order of their row indices
 
 
 def cylinder_types(cylinders) -> tuple[list, np.ndarray]:

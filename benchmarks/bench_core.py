@@ -13,6 +13,7 @@ median wall time of fresh `harmbal run` processes, imports included.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import platform
 import subprocess
 import sys
@@ -69,6 +70,11 @@ def main() -> None:
     for name in ("v12.toml", "tractor-3cyl.toml"):
         scene = hb.load_scene(ENGINES / name)
         rows.append((f"analyse({name.removesuffix('.toml')})", median_seconds(lambda: hb.analyse(scene), args.repeat)))
+    tractor = hb.load_scene(ENGINES / "tractor-3cyl.toml")
+    with _without_xarray_objects():
+        for label, scene in (("tractor-3cyl", tractor), ("V8", v8)):
+            rows.append((f"analyse({label}) short of its xarray objects (diagnostic: harmbal.labelled's "
+                         "constructors pass the arrays through)", median_seconds(lambda: hb.analyse(scene), args.repeat)))
 
     sweep = v8.with_speeds(np.linspace(600, 8000, 10_000) * np.pi / 30)
     sweep_repeat = max(3, args.repeat // 20)
@@ -97,6 +103,28 @@ def main() -> None:
     print(f"\nanalyse(V8) / arithmetic floor: {whole / floor:.1f}×")
     print("10⁶-speed V8 sweep, fresh process: analyse {analyse:.3f} s + save {save:.3f} s, archive {size:.1f} MB, "
           "peak RSS {rss:.0f} MB".format(**million))
+
+
+@contextlib.contextmanager
+def _without_xarray_objects():
+    """Within the block, analyse does all its work but build Variables, Datasets and the tree: the
+    constructors of :mod:`harmbal.labelled` return what they are given. What analyse costs short of its
+    xarray objects (the ≥ 1 000× Exudyn target needs analyse(tractor-3cyl) ≤ 0.45 ms)."""
+    from harmbal import labelled
+
+    saved = {name: getattr(labelled, name) for name in ("_dataset_direct", "_tree_direct", "variable", "_as_variable")}
+    speed_variable = labelled.Speeds.variable
+    labelled._dataset_direct = lambda data, coords, attrs: (data, coords, attrs)
+    labelled._tree_direct = lambda attrs, groups: groups
+    labelled.variable = lambda dims, values, attrs=None: values
+    labelled._as_variable = lambda value: value
+    labelled.Speeds.variable = lambda self, dims, unit, attrs, constant=None: unit
+    try:
+        yield
+    finally:
+        for name, function in saved.items():
+            setattr(labelled, name, function)
+        labelled.Speeds.variable = speed_variable
 
 
 _MILLION = """

@@ -6,9 +6,9 @@ import numpy as np
 
 from ._version import __version__
 from .labelled import CONVENTIONS, Speeds, dataset, tree
-from .model.evaluate import evaluate
+from .model.evaluate import evaluate, time_domain_evaluation
 from .model.gas import gas_loads
-from .model.sampling import body_decay_rates, choose_samples, inertia_samples, simulates_gas
+from .model.sampling import simulates_gas
 from .orders.phasors import order_phasors
 from .scene import Scene
 from .views.orders import orders_dataset, unit_orders
@@ -81,11 +81,7 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     """
     if "speed_fluctuation" in scene.model.effects:
         return _fluctuating(scene, per_cylinder, backend)
-    # With gas the inertia keeps a grid of its own, coarser than the gas's: only the time-domain views
-    # need it on the gas grid, where it is interpolated (inertia_samples says why that is exact enough).
-    rates = body_decay_rates(scene)
-    samples = choose_samples(scene, rates)
-    unit = evaluate(scene, inertia_samples(scene, rates, samples), peak_samples=samples, decay_rates=rates)
+    unit, samples = time_domain_evaluation(scene)  # with gas, the inertia on a grid of its own (see there)
     gas = gas_loads(scene, samples) if simulates_gas(scene) else None
     moments = body_moments(unit)
     aliasing = body_aliasing(unit, backend, moments)

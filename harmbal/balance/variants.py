@@ -32,7 +32,6 @@ import numpy as np
 
 from ..model.evaluate import evaluate
 from ..model.linear import PROPERTIES, planar_basis
-from ..model.sampling import body_decay_rates, choose_samples
 from ..orders.linear import LinearPhasors, _matmul, combine, linear_phasors, slot_values
 from ..orders.spectrum import BALANCED_RTOL
 from ..scene import Scene
@@ -154,16 +153,11 @@ def _extended(per_slot: np.ndarray, constant: np.ndarray) -> np.ndarray:
 
 
 def _peak_bounds(scene: Scene) -> _PeakBounds:
-    n = choose_samples(scene, body_decay_rates(scene))
-    theta = 2 * np.pi * np.arange(n) / n
+    unit = evaluate(scene)  # its grid, arms and element bounds (tests check the scales against evaluate's)
+    theta, n, crank_arm = unit.theta, unit.samples_per_rev, unit.crankshaft_lever_arm
     cyls = scene.cylinders
     names, _ = slot_values(scene)
     slot = {name: s for s, name in enumerate(names)}
-    unit = evaluate(scene)
-    ref = np.asarray(scene.reference_point, dtype=float)
-    # evaluate()'s arm of the crankshaft unbalances (tests check the scales against evaluate's).
-    crank_arm = max([0.0] + [float(np.hypot(u.x - ref[0], np.hypot(ref[1], ref[2])))
-                             for u in scene.crankshaft_unbalances])
     force, moment = np.zeros(len(names)), np.zeros(len(names))
     if "rotating" in scene.model.effects:
         for i, c in enumerate(cyls, start=1):

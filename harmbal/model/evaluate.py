@@ -24,7 +24,7 @@ from . import loads
 from .balancers import shaft_loads, shaft_phasors, unbalance_phasors
 from .kinematics import SliderCrank, crank_pin, slider_crank
 from .linkage import lever_loads
-from .sampling import body_decay_rates, choose_samples, interpolate
+from .sampling import body_decay_rates, choose_samples, inertia_samples, interpolate
 from ..scene import Model, Scene
 
 #: A cylinder's phase within this many rounding units (relative, of its phase in grid steps) of a grid
@@ -54,7 +54,8 @@ class UnitLoads:
       ``crankshaft_peak_moment``: bounds on each body's peak load, moments
       about ``reference_point``; their sums are the load scales.
     * ``lever_arm`` (cylinder,): farthest distance of a cylinder's loads from
-      the reference point [m]; ``decay_rates`` (cylinder + 1,): decay rate of
+      the reference point [m], ``crankshaft_lever_arm`` that of the
+      crankshaft's own unbalances; ``decay_rates`` (cylinder + 1,): decay rate of
       each body's harmonics (cylinders, then the crankshaft's elements).
     * ``drive_torque`` (cylinder, N): d(KE)/dθ of each cylinder's moving
       parts [N m], the torque on the crank that keeps ω constant (the mass
@@ -91,6 +92,7 @@ class UnitLoads:
     crankshaft_peak_force: float
     crankshaft_peak_moment: float
     lever_arm: np.ndarray
+    crankshaft_lever_arm: float
     decay_rates: np.ndarray
     drive_torque: np.ndarray
     kinetic_energy: np.ndarray
@@ -392,10 +394,26 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         peak_force=peak_force, peak_moment=peak_roll + arm * peak_force,
         crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
         crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
-        lever_arm=arm, decay_rates=decay_rates, drive_torque=drive_torque,
+        lever_arm=arm, crankshaft_lever_arm=crank_arm, decay_rates=decay_rates, drive_torque=drive_torque,
         kinetic_energy=kinetic_energy, phase=throw - bank, bank=bank, x=x, unbalance_phasors=unbalances,
         crankshaft_phasors=crankshaft, harmonic_orders=tuple(harmonic),
     )
+
+
+def time_domain_evaluation(scene: Scene, samples_per_rev: int | None = None) -> tuple[UnitLoads, int]:
+    """The evaluation the time-domain views derive from, and the samples per
+    revolution of their grid (the gas grid's with gas: the scene's sampling,
+    :func:`harmbal.model.sampling.choose_samples`, or ``samples_per_rev``).
+
+    With gas the inertia keeps a grid of its own, coarser than the gas's
+    (:func:`harmbal.model.sampling.inertia_samples` says why that is exact
+    enough), and is interpolated onto the gas grid where a view needs it
+    there; its peak loads, which judge what is "zero", are taken over that
+    grid. A given ``samples_per_rev`` is used for both."""
+    rates = body_decay_rates(scene)
+    samples = samples_per_rev or choose_samples(scene, rates)
+    inertia = samples_per_rev or inertia_samples(scene, rates, samples)
+    return evaluate(scene, inertia, peak_samples=samples, decay_rates=rates), samples
 
 
 def _element_phasors(scene: Scene, throw: np.ndarray):

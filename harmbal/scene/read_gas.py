@@ -44,7 +44,7 @@ class GasTables:
     """The [gas] tables and [flywheel]; mixed into the scene reader, whose
     primitives (``fail``, ``table``, ``quantity``, ...) it uses. ``base`` is
     the directory trace files are relative to, ``files`` the trace files read
-    so far (path -> text)."""
+    so far (path -> text), ``gases`` the distinct gas tables made so far."""
 
     def flywheel(self, data: Mapping, has_gas: bool) -> Flywheel | None:
         """[flywheel]: what the speed fluctuation needs beyond the gas torque."""
@@ -125,10 +125,9 @@ class GasTables:
         gas = Gas(bore=bore, crankcase_pressure=crankcase, trace=trace)
         # Cylinders of equal tables share one object: the model finds cylinders with the same trace by
         # identity, without comparing the tables again at every evaluation.
-        known = self.__dict__.setdefault("_gases", [])
-        same = next((g for g in known if g == gas), None)
+        same = next((g for g in self.gases if g == gas), None)
         if same is None:
-            known.append(gas)
+            self.gases.append(gas)
         return gas if same is None else same
 
     # -- measured traces ---------------------------------------------------

@@ -31,7 +31,7 @@ from .read_engine import _MODEL_KEYS, _SAMPLING_KEYS, EngineTables
 from .read_gas import GasTables
 from .read_loads import LoadTables
 from .read_requests import RequestTables
-from .schema import (_MISSING, EFFECTS, MAX_SPEEDS, Cylinder, Model, Problem, Scene, SceneError, _closest,
+from .schema import (_MISSING, EFFECTS, MAX_SPEEDS, Cylinder, Gas, Model, Problem, Scene, SceneError, _closest,
                      _join)
 from .units import QuantityError, to_si
 
@@ -113,6 +113,7 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
         # without a file, to the working directory.
         self.base = Path(source).parent if not source.startswith("<") else Path.cwd()
         self.files: dict[Path, str] = {}
+        self.gases: list[Gas] = []
 
     # -- primitives --------------------------------------------------------
 

@@ -8,9 +8,9 @@ import numpy as np
 
 from .._version import __version__
 from ..labelled import AXES, CONVENTIONS, Speeds, dataset
-from ..model.evaluate import UnitLoads, evaluate, moment_about
+from ..model.evaluate import UnitLoads, evaluate, moment_about, time_domain_evaluation
 from ..model.gas import GasLoads, gas_loads
-from ..model.sampling import choose_samples, inertia_samples, simulates_gas
+from ..model.sampling import simulates_gas
 from ..orders.spectrum import ROUND_OFF_FLOOR, aliasing_estimate, phasors
 from ..scene import EFFECTS, Scene
 
@@ -57,8 +57,7 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         if per_cylinder:
             raise ValueError("per_cylinder is not available at a fluctuating speed (effect speed_fluctuation)")
         return fluctuating_time_dataset(scene, samples_per_rev=samples_per_rev)
-    samples = samples_per_rev or choose_samples(scene)
-    unit = evaluate(scene, samples_per_rev or inertia_samples(scene), peak_samples=samples)
+    unit, samples = time_domain_evaluation(scene, samples_per_rev)
     gas = gas_loads(scene, samples) if simulates_gas(scene) else None
     return time_dataset(unit, Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas),
                         labels=[c.label for c in scene.cylinders] if per_cylinder else None, gas=gas)

@@ -59,8 +59,9 @@ LAYOUTS = {
 }
 
 
-def _amplitude(value: complex, free: bool) -> str:
-    return f"{abs(value):.4g}" if free else "0"
+def _amplitude(value: complex, code: int) -> str:
+    """The amplitude of a free component; 0 (zero to round-off) or ~0 (negligible) otherwise."""
+    return f"{abs(value):.4g}" if code == 2 else ("~0" if code == 1 else "0")
 
 
 def layout_section(name: str, note: str) -> str:
@@ -86,9 +87,8 @@ def layout_section(name: str, note: str) -> str:
     for k in ORDERS:
         force = ds["force_rotating"].values[k]
         moment = ds["moment_rotating"].values[k]
-        ffree = ds["force_free"].values[k]
-        mfree = ds["moment_free"].values[k]
-        cells = [_amplitude(v, f) for v, f in zip(force, ffree)] + [_amplitude(v, f) for v, f in zip(moment, mfree)]
+        cells = [_amplitude(v, c) for v, c in zip(force, ds["force_class"].values[k])]
+        cells += [_amplitude(v, c) for v, c in zip(moment, ds["moment_class"].values[k])]
         regular = "yes" if bool(ds["star_regular"].values[k]) else "no"
         lines.append(f"| {k} | {_arms(ds['star_angle'].values[k])} | {regular} | " + " | ".join(cells)
                      + f" | {verdict(ds, k)} |")
@@ -102,8 +102,9 @@ def page() -> str:
         "[Crank stars and free vectors](stars.md) for what the columns mean. Amplitudes are peak values of\n"
         "the co- and counter-rotating phasors of the transverse free force F and free moment M (about the\n"
         "scene's reference point) at the dataset's first speed, with all of the dataset's effects\n"
-        "(so the rotating masses and, where present, counterweights are included). `0` means balanced\n"
-        "to 1e-10 of the load scale. The note under each title is the hand derivation the numbers\n"
+        "(so the rotating masses and, where present, counterweights are included). `0` means zero to\n"
+        "round-off (1e-10 of the load scale), `~0` negligible (at most 1e-3 of one cylinder's share of the\n"
+        "load scale: [conventions](conventions.md#zero-negligible-free)). The note under each title is the hand derivation the numbers\n"
         "confirm; tests/test_stars_oracles.py checks them against independent closed forms.\n"
     )
     return header + "\n" + "\n\n".join(layout_section(name, note) for name, note in LAYOUTS.items()) + "\n"

@@ -57,12 +57,20 @@ _EXPORTS = {
 
 __all__ = ["__version__", *_EXPORTS]
 
+#: The public names whose results are xarray objects: looking one up registers
+#: the ``.harmbal`` accessor on Datasets and DataTrees (:mod:`harmbal.accessor`),
+#: so that ``import harmbal`` alone does not import xarray.
+_XARRAY_RESULTS = {"simulate", "order_spectrum", "stars", "verify_orders", "design", "Design", "verify", "joints",
+                   "loads", "LeverDesign", "analyse", "report", "open_archive", "clearance", "sweep", "monte_carlo"}
+
 
 def __getattr__(name: str):
     if name in _EXPORTS:
         import importlib
 
         value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        if name in _XARRAY_RESULTS:
+            from . import accessor  # noqa: F401  (registers ds.harmbal and tree.harmbal)
         globals()[name] = value
         return value
     raise AttributeError(f"module 'harmbal' has no attribute {name!r}")

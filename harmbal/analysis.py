@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._version import __version__
+from ._version import __version__, source_revision
 from .labelled import CONVENTIONS, Speeds, dataset, tree
 from .model.evaluate import evaluate, time_domain_evaluation
 from .model.gas import gas_loads
@@ -36,7 +36,7 @@ def scene_dataset(scene: Scene):
         "piston_mass": var([c.piston.mass for c in cyls], "kg", "piston group mass"),
         "rod_mass": var([c.rod.mass for c in cyls], "kg", "con-rod mass"),
         "rod_cg": var([c.rod.cg_from_big_end for c in cyls], "m", "con-rod CG from the big end"),
-        "rod_inertia": var([np.nan if c.rod.inertia is None else c.rod.inertia for c in cyls], "kg m2",
+        "rod_inertia": var([np.nan if c.rod.inertia is None else c.rod.inertia for c in cyls], "kg m^2",
                            "con-rod moment of inertia about its CG"),
     }
     coords = {"cylinder": ("cylinder", [c.label for c in cyls], {"long_name": "cylinder label"})}
@@ -159,5 +159,6 @@ def _tree(scene: Scene, groups: dict, backend: str):
         "title": f"harmbal analysis: {scene.name}",
         "engine": scene.name,
         "harmbal_version": __version__,
-        "conventions": CONVENTIONS,
+        "source_revision": source_revision(),
+        "harmbal_conventions": CONVENTIONS,
     }, groups)

@@ -7,6 +7,7 @@ failure. Nothing is written unless the whole job succeeded.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import warnings
 from contextlib import contextmanager
@@ -160,8 +161,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="Monte Carlo: the same for the moment [N m]")
     sweep.add_argument("--peaks", action="store_true", help="also the peak force and moment over a revolution")
     sweep.add_argument("--design", action="store_true",
-                       help="design the balancers of every variant from the scene's [design] table, and report the "
-                            "designed unbalances and the residuals with them")
+                       help="design the balancers of every variant from the scene's [design] table: rank best and "
+                            "worst on the loads after the design, report the targeted and the untargeted residuals "
+                            "apart, and the designed unbalances")
     sweep.add_argument("-o", "--output", type=Path,
                        help="write the results to this netCDF archive (.nc) or Zarr store (.zarr, needs harmbal[dask])")
     sweep.add_argument("--chunks", type=_positive_int, metavar="N",
@@ -182,6 +184,10 @@ def _parser() -> argparse.ArgumentParser:
                     "verification and joint-force tables if the archive holds them.")
     show.add_argument("archive", type=Path, help="netCDF archive written by 'harmbal run -o'")
     show.set_defaults(handler=_show)
+    for command in (run, star, design, check, rep, sweep):
+        command.add_argument("--negligible", type=_negligible, metavar="FRACTION",
+                             help="components at or below FRACTION of one cylinder's share of the load scale are "
+                                  "negligible (default: the scene's [model] negligible, else 1e-3)")
     return parser
 
 
@@ -211,7 +217,7 @@ def _bench(args) -> None:
 def _run(args) -> None:
     if args.output is not None:
         _check_output(args.output)
-    scene = _load(args.scene)
+    scene = _load(args.scene, args.negligible)
     from .model.sampling import simulates_gas
 
     if (args.output is None and scene.verify is None and not scene.levers and not simulates_gas(scene)
@@ -226,10 +232,12 @@ def _run(args) -> None:
     tree = analyse(scene, backend=args.backend)
     print(order_table(tree["orders"].ds))
     if "torque" in tree.children:
-        from .reporting.tables import torque_table
+        from .reporting.tables import power_and_fluctuation_table, torque_table
 
         print()
         print(torque_table(tree["torque"].ds))
+        print()
+        print(power_and_fluctuation_table(tree["torque"].ds))
     if "verify" in tree.children:
         from .reporting.tables import verify_table
 
@@ -251,8 +259,18 @@ def _run(args) -> None:
         print()
         print(clearance_table(tree["clearance"].ds))
     if args.output is not None:
+        tree.attrs.update(_provenance(args))
         save(tree, args.output)
         print(f"\nwrote {args.output}")
+
+
+def _provenance(args) -> dict:
+    """An archive's root attributes that say how to make it again: the
+    harmbal version, the git commit of its sources (or "unknown") and, as
+    the CF ``history``, the command that wrote it."""
+    from ._version import source_revision
+
+    return {"harmbal_version": __version__, "source_revision": source_revision(), "history": args.command_line}
 
 
 def _loads(args) -> None:
@@ -275,7 +293,7 @@ def _loads(args) -> None:
     if args.output is not None:
         from .io.archive import save
 
-        save(tree({"title": f"harmbal loads: {scene.name}", "engine": scene.name, "harmbal_version": __version__},
+        save(tree({"title": f"harmbal loads: {scene.name}", "engine": scene.name, **_provenance(args)},
                   groups), args.output)
         print(f"\nwrote {args.output}")
 
@@ -327,7 +345,7 @@ def _sweep(args) -> None:
         repeated = sorted({k for k in given if given.count(k) > 1})
         if repeated:
             raise _BadInput(f"{what}: {', '.join(repeated)} given more than once")
-    scene = _load(args.scene)
+    scene = _load(args.scene, args.negligible)
     if max(args.orders) > scene.sampling.max_order:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
     from .reporting.progress import ProgressBar
@@ -356,7 +374,7 @@ def _sweep(args) -> None:
         from .analysis import scene_dataset
         from .labelled import tree
 
-        archive = tree({"title": ds.attrs["title"], "engine": scene.name, "harmbal_version": __version__},
+        archive = tree({"title": ds.attrs["title"], "engine": scene.name, **_provenance(args)},
                        {"scene": scene_dataset(scene), "sweep": ds})
     from .io.archive import save, save_and_compute
 
@@ -391,7 +409,7 @@ def _require(module: str, option: str) -> None:
     import importlib.util
 
     if importlib.util.find_spec(module) is None:
-        raise _BadInput(f"{option} needs {module}: pip install \"harmbal[dask]\"")
+        raise _BadInput(f"{option} needs {module}: pip install dask distributed zarr (the extra harmbal[dask])")
 
 
 @contextmanager
@@ -413,7 +431,8 @@ def _dask_scheduler(spec: str | None):
     try:
         from distributed import Client, LocalCluster
     except ImportError:
-        raise _BadInput("--scheduler: a cluster needs dask.distributed: pip install \"harmbal[dask]\"") from None
+        raise _BadInput("--scheduler: a cluster needs dask.distributed: pip install dask distributed zarr (the extra "
+                        "harmbal[dask])") from None
     cluster = None
     if spec.startswith("local:"):
         workers = spec.partition(":")[2]
@@ -437,11 +456,13 @@ def _dask_scheduler(spec: str | None):
 
 
 def _sweep_values(key: str, text: str) -> list:
-    """START:STOP:N (N values, SI numbers or quantities with units) or V1,V2,... (as given)."""
+    """START:STOP:N (N values, SI numbers, or quantities in the units START is
+    typed in, kept as typed so that the sweep echoes them in those units) or
+    V1,V2,... (as given)."""
     import numpy as np
 
     from .scene.units import QuantityError
-    from .studies.sweep import quantity_value
+    from .studies.sweep import display_factor, quantity_value, typed_units
 
     parts = text.split(":")
     if len(parts) == 1:
@@ -451,12 +472,16 @@ def _sweep_values(key: str, text: str) -> list:
     try:
         count = int(parts[2])
         (start, units), (stop, stop_units) = (quantity_value(v.strip()) for v in parts[:2])
+        typed = typed_units(parts[0].strip())
+        factor = display_factor(typed)
     except (ValueError, QuantityError) as exc:
         raise argparse.ArgumentTypeError(f"{key}: {text!r}: {exc}") from None
     if count < 1 or (count == 1 and start != stop) or units != stop_units:
         raise argparse.ArgumentTypeError(f"{key}: {text!r}: N ≥ 1 values (1 only if START = STOP), START and STOP "
                                          "in the same units")
-    return list(np.linspace(start, stop, count))
+    if typed is None:
+        return list(np.linspace(start, stop, count))
+    return [f"{float(v)!r} {typed}" for v in np.linspace(start / factor, stop / factor, count)]
 
 
 def _number_or_text(text: str):
@@ -548,6 +573,19 @@ def _lambdas(text: str) -> list[float]:
     return list(dict.fromkeys(values))
 
 
+def _negligible(text: str) -> float:
+    from .scene.schema import NEGLIGIBLE_RANGE
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not NEGLIGIBLE_RANGE[0] <= value <= NEGLIGIBLE_RANGE[1]:
+        raise argparse.ArgumentTypeError(f"must lie in [{NEGLIGIBLE_RANGE[0]:g}, {NEGLIGIBLE_RANGE[1]:g}] (a fraction "
+                                         f"of one cylinder's share of the load scale): {text!r}")
+    return value
+
+
 def _share(text: str) -> float:
     try:
         value = float(text)
@@ -569,7 +607,7 @@ def _design(args) -> None:
     _check_output(args.output, (".toml",), "the design is written as a scene file (.toml)")
     if args.output.resolve() == args.scene.resolve():
         raise _BadInput(f"{args.output}: would overwrite the input scene; choose another file")
-    scene = _load(args.scene)
+    scene = _load(args.scene, args.negligible)
     lever = isinstance(scene.design, LeverDesignRequest)
     if args.method != "exact" and not lever:
         raise _BadInput(f"--method {args.method}: only for lever balancers ([design.lever])")
@@ -587,6 +625,8 @@ def _design(args) -> None:
     check = verify(result.scene)
     print()
     print(verify_table(check))
+    for sentence in result.worsened:  # a warning, not a failure: the exit status stays the design's
+        warnings.warn(sentence)
     if not result.feasible and not args.partial:
         raise _Disagreement("some targets cannot be cancelled (see above); nothing written (--partial writes "
                             "the design anyway)")
@@ -619,7 +659,7 @@ def _verify(args) -> None:
     from .scene.requests import VerifyRequest
     from .reporting.tables import verify_table
 
-    scene = _load(args.scene)
+    scene = _load(args.scene, args.negligible)
     request = scene.verify
     if args.orders:
         if max(args.orders) > scene.sampling.max_order:
@@ -634,15 +674,20 @@ def _verify(args) -> None:
         request = dataclasses.replace(request, tolerance=args.tolerance)
     check = verify(scene, request)
     print(verify_table(check))
+    for sentence in check.attrs["worsened"].splitlines():  # a warning: the exit status stays the verdict's
+        warnings.warn(sentence)
     if check.attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the balancers within the tolerance")
 
 
-def _load(path: Path):
+def _load(path: Path, negligible: float | None = None):
+    """The scene at ``path``, with ``--negligible`` if given; bad input exits 2."""
     from .scene import SceneError, load_scene
 
     try:
         scene = load_scene(path)
+        if negligible is not None:
+            scene = scene.with_negligible(negligible)
         if any(c.gas is not None for c in scene.cylinders):
             from .model.pressure import check_gas
 
@@ -665,7 +710,7 @@ def _stars(args) -> None:
 
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
-    scene = _load(args.scene)
+    scene = _load(args.scene, args.negligible)
     tree = analyse(scene)  # the same evaluation and free vectors as harmbal run
     ds = with_free_vectors(tree["stars"].ds, tree["orders"].ds)
     if args.orders and max(args.orders) > ds.sizes["order"] - 1:
@@ -696,7 +741,13 @@ def _report(args) -> None:
             raise _BadInput(f"{args.css}: cannot read the style sheet ({exc})") from exc
         if "</style" in css.lower():
             raise _BadInput(f"{args.css}: a style sheet cannot contain '</style'")
+    from .reporting.svg import start_worker
+
+    start_worker()  # a second process imports matplotlib while this one reads and analyses the input
     if args.input.suffix.lower() == ".nc":
+        if args.negligible is not None:
+            raise _BadInput(f"{args.input}: --negligible applies to a scene; an archive keeps the classes it was "
+                            "written with (run the scene with --negligible, or report the scene)")
         tree = _open(args.input)
         if "scene" not in tree.children or "scene_toml" not in tree["scene"].ds.attrs:
             raise _BadInput(f"{args.input}: archive has no /scene group with the scene text")
@@ -706,7 +757,7 @@ def _report(args) -> None:
     else:
         from .analysis import analyse
 
-        tree = analyse(_load(args.input))
+        tree = analyse(_load(args.input, args.negligible))
     report(tree, args.output, log=args.log, css=css)
     print(f"wrote {args.output}")
 
@@ -769,6 +820,7 @@ def _one_line_warnings():
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``harmbal`` command; returns the exit code."""
     args = _parser().parse_args(argv)
+    args.command_line = "harmbal " + shlex.join(map(str, sys.argv[1:] if argv is None else argv))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")

@@ -103,23 +103,27 @@ def test_round_trip_single_speed(tmp_path):
 
 
 def test_gas_sweep_round_trip_and_plain_reconstruction(tmp_path):
-    # The gas loads do not scale with ω²: a sweep stores them beside the unit-speed inertia as
-    # "<name>_speed_independent", only for the variables the gas adds to (a pure couple about x: the
-    # moment, its tail and scale; no force), and a plain reader rebuilds each speed as stored·ω² + that.
+    # The gas loads do not scale with ω²: the unit-speed form (of large sweeps; forced here) stores them beside
+    # the unit-speed inertia as "<name>_speed_independent_part", only for the variables the gas adds to (a pure
+    # couple about x: the moment, its tail and scale, the roll's negligible level; no force), and a plain reader
+    # rebuilds each speed as stored·ω² + that.
     tree = hb.analyse(hb.load_scene(ROOT / "datasets" / "engines" / "v8-cross-plane-gas.toml"))
-    path = hb.save(tree, tmp_path / "v8-gas.nc")
+    path = hb.save(tree, tmp_path / "v8-gas.nc", per_speed_limit=0)
     back = hb.open_archive(path)
     for group in ("time", "orders", "torque"):
         xr.testing.assert_identical(back[group].to_dataset(inherit=False), tree[group].to_dataset(inherit=False))
     with xr.open_datatree(path) as plain:
         orders = plain["orders"].ds
-        companions = sorted(n for n in orders.data_vars if n.endswith("_speed_independent"))
-        assert companions == ["aliasing_error_moment_speed_independent", "moment_scale_speed_independent",
-                              "moment_speed_independent"]
+        companions = sorted(n for n in orders.data_vars if n.endswith("_speed_independent_part"))
+        assert companions == ["aliasing_error_moment_speed_independent_part", "moment_scale_speed_independent_part",
+                              "moment_speed_independent_part", "roll_negligible_level_speed_independent_part"]
+        assert "moment" not in orders.data_vars
         w2 = (orders.speed.values**2)[:, None, None]
-        stored, constant = orders.moment.isel(part=0).values, orders.moment_speed_independent.isel(part=0).values
+        stored = orders.moment_per_speed_squared.isel(part=0).values
+        constant = orders.moment_speed_independent_part.isel(part=0).values
         np.testing.assert_array_equal(w2 * stored + constant, tree["orders"].ds.moment.values.real)
-        np.testing.assert_array_equal(w2 * orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
+        np.testing.assert_array_equal(w2 * orders.force_per_speed_squared.isel(part=0).values,
+                                      tree["orders"].ds.force.values.real)
 
 
 def test_plain_xarray_reads_it(archive, tree):
@@ -129,18 +133,16 @@ def test_plain_xarray_reads_it(archive, tree):
         # complex values are stored as a trailing real/imag dimension
         assert orders.force.dims[-1] == "part"
         assert list(orders["part"].values) == ["real", "imag"]
-        # a speed sweep is stored once at 1 rad/s: the value at each speed is the stored one times speed²
-        w2 = (orders.speed.values**2)[:, None, None]
-        assert "speed" not in orders.force.dims and "w**2" in orders.force.attrs["speed_scaling"]
-        np.testing.assert_array_equal(w2 * orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
-        np.testing.assert_array_equal(w2 * orders.force.isel(part=1).values, tree["orders"].ds.force.values.imag)
+        # a modest speed sweep is stored per speed, with the speed coordinates in each group over speed
+        assert orders.force.dims[0] == "speed" and "speed" in plain["orders"].to_dataset(inherit=False).coords
+        np.testing.assert_array_equal(orders.force.isel(part=0).values, tree["orders"].ds.force.values.real)
+        np.testing.assert_array_equal(orders.force.isel(part=1).values, tree["orders"].ds.force.values.imag)
         time = plain["time"].ds
-        np.testing.assert_array_equal(w2 * time.force.values, tree["time"].ds.force.values)
+        np.testing.assert_array_equal(time.force.values, tree["time"].ds.force.values)
         for group in ("time", "orders"):
             for name in ("force", "moment"):
                 attrs = plain[group].ds[name].attrs
-                assert attrs["units_at_speed"] == ("N" if name == "force" else "N m")
-                assert attrs["units"] == attrs["units_at_speed"] + " s2"
+                assert attrs["units"] == ("N" if name == "force" else "N m")
                 assert attrs["long_name"]
         assert plain["time"].ds.angle.attrs["units"] == "rad"
 
@@ -151,18 +153,16 @@ def test_netcdf4_library_reads_it(archive, tree, scene_file):
         assert set(nc.groups) == {"scene", "time", "orders", "stars"}
         assert nc["stars"].variables["firing_sequence"][:].tolist() == tree["stars"].ds.firing_sequence.values.tolist()
         assert nc.getncattr("harmbal_version") == hb.__version__
-        assert "crank axis" in nc.getncattr("conventions")
+        assert "crank axis" in nc.getncattr("harmbal_conventions") and nc.getncattr("Conventions") == "CF-1.10"
         assert nc["scene"].getncattr("scene_toml") == scene_file.read_text(encoding="utf-8")
         force = nc["time"].variables["force"]
-        assert force.getncattr("units") == "N s2" and force.getncattr("units_at_speed") == "N"
+        assert force.getncattr("units") == "N" and force.dimensions[0] == "speed"
         assert force.getncattr("long_name")
-        # a sweep's speed coordinates are stored once, in the root group, which every group sees
-        assert "speed" not in nc["time"].variables and "speed" in nc.variables
-        assert nc.getncattr("speed_coordinates_of").split() == ["/time", "/orders", "/stars"]
-        w2 = nc.variables["speed"][:] ** 2
-        np.testing.assert_array_equal(w2[:, None, None] * force[:], tree["time"].ds.force.values)
+        # the speed coordinates are in each group over speed, not in the root
+        assert "speed" in nc["time"].variables and "speed" not in nc.variables
+        np.testing.assert_array_equal(force[:], tree["time"].ds.force.values)
         moment = nc["orders"].variables["moment"]
-        assert moment.getncattr("units_at_speed") == "N m"
+        assert moment.getncattr("units") == "N m"
         assert moment.dimensions[-1] == "part"
 
 

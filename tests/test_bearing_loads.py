@@ -209,10 +209,10 @@ def test_lever_rule():
     xs = np.array([0.3, -0.1, 0.1, 0.5])
     loads = np.array([-0.2, -0.1, 0.0, 0.05, 0.1, 0.29, 0.5, 0.7])
     s = lever_shares(xs, loads)
-    np.testing.assert_allclose(s.sum(axis=0), 1, atol=1e-15)
-    np.testing.assert_allclose(xs @ s, loads, atol=1e-15)
+    np.testing.assert_allclose(s.sum(axis=0), 1, atol=1e-15)  # scale: 1 (shares)
+    np.testing.assert_allclose(xs @ s, loads, atol=1e-15)  # scale: 0.5 m (positions)
     assert (np.count_nonzero(np.abs(s) > 1e-15, axis=0) <= 2).all()
-    np.testing.assert_allclose(s[:, 3], [0, 0.25, 0.75, 0], atol=1e-15)  # 0.05 between -0.1 and 0.1
+    np.testing.assert_allclose(s[:, 3], [0, 0.25, 0.75, 0], atol=1e-15)  # scale: 1; 0.05 between -0.1 and 0.1
 
 
 def test_the_single_cylinder_theses_interface_numbers():

@@ -115,7 +115,7 @@ def test_invariance_under_a_shift_of_the_angle_origin():
     base = hb.clearance(scene_from_text(_engine() + parts))
     shift = math.radians(40)
     shifted = hb.clearance(scene_from_text(_engine(throw="40 deg") + parts))
-    np.testing.assert_allclose(shifted.min_distance, base.min_distance, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(shifted.min_distance, base.min_distance, rtol=0, atol=1e-12)  # scale: 0.1 m
     diff = np.angle(np.exp(1j * (shifted.angle.values + shift - base.angle.values)))
     # The skirt slides along the liner at a constant distance: no angle is special, both report 0.
     constant = base.pair.values == "skirt / liner"
@@ -138,7 +138,8 @@ def test_signed_distance_of_polygons():
     assert signed_distance(np.array([0, 1]), 0.0, np.array([3, 4]), 0.0) == pytest.approx(2, rel=1e-15)
     # Vectorised over leading (angle) axes.
     many = np.stack([square, square + 2])
-    np.testing.assert_allclose(signed_distance(many, 0.0, other[None, :], 0.0), [math.sqrt(0.5), 0.5], atol=1e-15)
+    np.testing.assert_allclose(signed_distance(many, 0.0, other[None, :], 0.0), [math.sqrt(0.5), 0.5],
+                               atol=1e-15)  # scale: 1 (unit squares)
 
 
 @pytest.mark.parametrize("entry, key, rule", [
@@ -252,7 +253,7 @@ def test_rods_of_two_cylinders_are_two_bodies():
     hit = ds.sel(pair="big end front / big end rear")
     # Two throws at 0° on crank pins 100 mm apart axially share no pin here: the big ends sit on their own
     # pins, both at radius 60 mm and angle θ + 0: concentric, overlapping by 80 mm.
-    assert bool(hit.collision) and float(hit.min_distance) == pytest.approx(-0.08, abs=1e-12)
+    assert bool(hit.collision) and float(hit.min_distance) == pytest.approx(-0.08, abs=1e-12)  # scale: 0.08 m
     assert "web / web rear" not in set(ds.pair.values)  # one crank
 
 

@@ -5,6 +5,7 @@ import sys
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tomli_w
 
@@ -191,3 +192,64 @@ def test_run_prints_the_order_table_of_the_analysis_without_importing_xarray(ste
         warnings.simplefilter("ignore")
         want = order_table(hb.analyse(hb.load_scene(path))["orders"].ds)
     assert done.stdout.rstrip("\n") == want
+
+
+def _flywheel_rows(text: str) -> dict[float, list[float]]:
+    """The rows of the power and speed-fluctuation table printed by harmbal
+    run: {rpm: [power kW, δ, J₀ needed kg m²]} (as many values as columns)."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.split()[:2] == ["speed", "[rpm]"])
+    rows = {}
+    for line in lines[start + 1:]:
+        if not line.strip():
+            break
+        values = [float(v) for v in line.split()]
+        rows[values[0]] = values[1:]
+    return rows
+
+
+def _tractor_gas(tmp_path, old: str = "", new: str = "") -> Path:
+    text = (ROOT / "datasets" / "engines" / "tractor-3cyl-gas.toml").read_text(encoding="utf-8")
+    assert old in text
+    path = tmp_path / "tractor-gas.toml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    return path
+
+
+def test_run_prints_the_speed_fluctuation_and_the_flywheel_the_target_needs(tmp_path, capsys):
+    """Oracles: /torque of hb.analyse for the printed numbers; and the scene
+    run again with the printed J₀ as its flywheel, whose δ is the target."""
+    scene = _tractor_gas(tmp_path, 'speed = "2460 rpm"', 'speed = ["1500 rpm", "2460 rpm"]')
+    assert main(["run", str(scene)]) == 0
+    text = capsys.readouterr().out
+    assert text.index("Torque: mean") < text.index("speed fluctuation")
+    assert "J₀ 1.6 kg m²" in text and "δ = (ω_max − ω_min)/ω_mean" in text
+    assert "J₀ for δ = 0.005 [kg m²]" in text and "power [kW]" in text
+    torque = hb.analyse(hb.load_scene(scene))["torque"].ds
+    rows = _flywheel_rows(text)
+    assert sorted(rows) == pytest.approx(torque["rpm"].values)
+    for i, speed in enumerate(torque["speed"].values):
+        power, delta, needed = rows[round(speed * 30 / np.pi, 6)]
+        assert power * 1e3 == pytest.approx(float(torque["mean_torque"]) * speed, rel=1e-4)
+        assert delta == pytest.approx(float(torque["fluctuation_coefficient"][i]), rel=1e-3)
+        assert needed == pytest.approx(float(torque["flywheel_inertia_needed"][i]), rel=1e-4)
+    # With the flywheel printed for 2460 rpm the engine runs at the target coefficient there.
+    sized = _tractor_gas(tmp_path, 'inertia = "1.6 kg m^2"', f'inertia = "{rows[2460.0][2]} kg m^2"')
+    assert main(["run", str(sized)]) == 0
+    assert _flywheel_rows(capsys.readouterr().out)[2460.0][1] == pytest.approx(0.005, rel=1e-3)
+
+
+def test_run_prints_only_what_the_flywheel_table_asks(tmp_path, capsys):
+    """Without a target: δ but no flywheel needed; without [flywheel]: the power only."""
+    assert main(["run", str(_tractor_gas(tmp_path, "target_coefficient = 0.005", ""))]) == 0
+    text = capsys.readouterr().out
+    assert "δ [1]" in text and "J₀ for" not in text
+    assert all(len(values) == 2 for values in _flywheel_rows(text).values())
+    assert main(["run", str(ROOT / "datasets" / "engines" / "v8-cross-plane-gas.toml")]) == 0
+    text = capsys.readouterr().out
+    assert "power [kW]" in text and "δ" not in text and "flywheel" not in text
+    torque = hb.analyse(hb.load_scene(ROOT / "datasets" / "engines" / "v8-cross-plane-gas.toml"))["torque"].ds
+    rows = _flywheel_rows(text)
+    for speed in torque["speed"].values:
+        power, = rows[round(speed * 30 / np.pi, 6)]
+        assert power * 1e3 == pytest.approx(float(torque["mean_torque"]) * speed, rel=1e-4)

@@ -203,7 +203,7 @@ def test_infeasible_target_is_reported_in_words_with_the_range():
     blank = Blank(7850.0, 0.025, (Strip(0.095, 0.0, 0.06),), solve=(0, "far"))
     low, high = unbalance_range(blank)
     exact_high = 7850 * 0.025 * 2 / 3 * 0.095**3  # the half-disc: far = radius
-    assert high == pytest.approx(exact_high, rel=1e-12) and low == pytest.approx(0, abs=1e-15)
+    assert high == pytest.approx(exact_high, rel=1e-12) and low == pytest.approx(0, abs=1e-12 * exact_high)
     with pytest.raises(DesignError, match=r"gives the unbalance 200 kg mm: this blank gives 0 to "
                                           rf"{exact_high * 1e3:.6g} kg mm; make it thicker"):
         size_blank(blank, 0.2)
@@ -276,7 +276,8 @@ def test_scene_counterweight_from_a_blank():
     moment = rho_t * (strip - hole) + 0.04 * 0.025 * cmath.exp(-1j * math.radians(30))
     (u,) = shaft.unbalances
     assert u.unbalance == pytest.approx(abs(moment), rel=1e-14)
-    assert cmath.exp(1j * u.angle) == pytest.approx(cmath.exp(1j * (math.pi + cmath.phase(moment))), abs=1e-14)
+    assert cmath.exp(1j * u.angle) == pytest.approx(cmath.exp(1j * (math.pi + cmath.phase(moment))),
+                                                    abs=1e-14)  # scale: 1 (unit phasors)
     assert u.x == pytest.approx(0.055)
 
 
@@ -339,7 +340,8 @@ def test_design_writes_the_sized_blank(tmp_path):
     (u,) = element.unbalances
     wanted = design.dataset.unbalance.values[0]
     assert u.unbalance == pytest.approx(wanted, rel=1e-12)
-    assert math.cos(u.angle - design.dataset.unbalance_angle.values[0]) == pytest.approx(1, abs=1e-13)
+    assert math.cos(u.angle - design.dataset.unbalance_angle.values[0]) == pytest.approx(
+        1, abs=1e-13)  # scale: 1 (a cosine)
     assert '[[counterweight.shape]]\nkind = "segment"' in design.text and "chord = " in design.text
     assert "counterweight: blank sized, segment (shape 1) chord = " in design.dataset.attrs["blanks"]
     assert hb.verify(design.scene).passed.all()

@@ -209,7 +209,8 @@ def test_balance_factor_moves_the_first_order_force_from_z_to_y(planes, factor):
     reciprocating = (0.45 + 0.5 * 40 / 140) * 0.04 * float(orders.speed) ** 2
     force = np.abs(orders.force.sel(order=1).values)
     assert force[0] <= 1e-12 * reciprocating
-    np.testing.assert_allclose(force[1:] / reciprocating, [factor, 1 - factor], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(force[1:] / reciprocating, [factor, 1 - factor], rtol=1e-12,
+                               atol=1e-12)  # scale: 1 (the reciprocating force)
     if factor == 0.5:
         co, counter = np.abs(orders.force_rotating.sel(order=1).values)
         assert co <= 1e-12 * reciprocating
@@ -496,7 +497,8 @@ def test_generated_dataset_is_up_to_date(stem, monkeypatch):
     # of another scipy/numpy build round differently (seen: 1e-15 relative on the lever weight's CG).
     assert _NUMBER.sub("#", written) == _NUMBER.sub("#", committed)
     np.testing.assert_allclose([float(x) for x in _NUMBER.findall(written)],
-                               [float(x) for x in _NUMBER.findall(committed)], rtol=1e-9, atol=1e-12)
+                               [float(x) for x in _NUMBER.findall(committed)], rtol=1e-9,
+                               atol=1e-12)  # scale: numbers ≥ 2e-3 (SI) but for written zeros
 
 
 _NUMBER = re.compile(r"-?\d+\.?\d*(?:[eE][-+]?\d+)?")

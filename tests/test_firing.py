@@ -172,7 +172,7 @@ def _twin(throws_banks, cycle=4, **geometry):
 
 def test_own_tdc_oracle_matches_closed_form():
     for r, l, e in ((0.06, 0.215, 0.0005), (0.04, 0.12, -0.01), (0.05, 0.1, 0.03), (0.05, 0.2, 0.0)):
-        assert own_tdc_psi(r, l, e) == pytest.approx(math.asin(e / (l + r)), abs=1e-14)
+        assert own_tdc_psi(r, l, e) == pytest.approx(math.asin(e / (l + r)), abs=1e-14)  # scale: 1 rad (as above)
 
 
 @pytest.mark.parametrize("e,h", [(0.0005, 0.0), (0.0, -0.004), (0.003, 0.006), (-0.002, -0.001)])
@@ -191,8 +191,8 @@ def test_pin_offset_shifts_tdc(e, h, cycle):
     }
     ds = run(data)
     psi = own_tdc_psi(r, l, e + h)
-    assert psi == pytest.approx(math.asin((e + h) / (l + r)), abs=1e-14)
-    assert _wrap(ds.firing_angle.values[0] - psi) == pytest.approx(0.0, abs=1e-12)
+    assert psi == pytest.approx(math.asin((e + h) / (l + r)), abs=1e-14)  # scale: 1 rad; brentq's xtol is 1e-15
+    assert _wrap(ds.firing_angle.values[0] - psi) == pytest.approx(0.0, abs=1e-12)  # scale: angles in rad
     assert intervals_deg(ds) == pytest.approx([360.0 * cycle / 2], abs=1e-9)
     assert ds.attrs["firing_even"] == "yes"
     check_dataset(data, ds)
@@ -498,8 +498,8 @@ def test_stars_firing_matches_firing_function():
                [x.offset for x in c], scene.cycle, scene.firing_order)
     ds = hb.stars(scene)
     assert list(ds.firing_sequence.values) == [c[i].label for i in f.sequence]
-    np.testing.assert_allclose(ds.firing_interval.values, f.interval, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(ds.firing_angle.values, f.angle, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ds.firing_interval.values, f.interval, rtol=0, atol=1e-12)  # scale: angles in rad
+    np.testing.assert_allclose(ds.firing_angle.values, f.angle, rtol=0, atol=1e-12)  # scale: angles in rad
     changed = copy.deepcopy(data)
     changed["engine"]["cycle"] = 2
     assert hb.stars(hb.load_scene(changed)).firing_interval.values.sum() == pytest.approx(TWO_PI)

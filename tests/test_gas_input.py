@@ -33,10 +33,14 @@ def gas_scene(base_scene):
     return base_scene
 
 
-def only_problem(mapping):
+def all_problems(mapping):
     with pytest.raises(SceneError) as info:
         hb.load_scene(mapping)
-    found = info.value.problems
+    return info.value.problems
+
+
+def only_problem(mapping):
+    found = all_problems(mapping)
     assert len(found) == 1, [str(p) for p in found]
     return found[0]
 
@@ -125,7 +129,8 @@ def test_any_range_of_one_cycle_is_accepted(gas_scene):
 
 def test_two_stroke_cycle_is_360_degrees(gas_scene):
     gas_scene["engine"]["cycle"] = 2
-    assert "longer than a cycle" in only_problem(gas_scene).rule
+    rule = only_problem(gas_scene).rule
+    assert "longer than a cycle" in rule and "set engine.cycle = 4" in rule  # a 720° table: a four-stroke's
     angles = list(np.arange(0.0, 360.0, 10.0))
     gas_scene["gas"]["trace"].update(angle=angles, pressure=pressures(angles))
     assert len(hb.load_scene(gas_scene).cylinders[0].gas.trace.angle) == 36
@@ -160,8 +165,14 @@ def test_unreadable_csv_names_the_line(gas_scene, tmp_path, text, needle):
 
 
 def test_csv_without_units_in_its_header_takes_trace_units(gas_scene, tmp_path):
-    gas_scene["gas"]["trace"] = {"file": str(tmp_path / write_csv(tmp_path, csv_text(header="angle,pressure")))}
-    assert "longer than a cycle" in only_problem(gas_scene).rule  # plain numbers: radians
+    path = tmp_path / write_csv(tmp_path, csv_text(header="angle,pressure"))
+    gas_scene["gas"]["trace"] = {"file": str(path)}
+    problems = all_problems(gas_scene)  # plain numbers in a table are refused, not taken as radians and Pa
+    assert [p.key for p in problems] == ["gas.trace.file"] * 2
+    for problem, column, header in zip(problems, ("column 1 'angle'", "column 2 'pressure'"),
+                                       ('"angle [deg]"', '"pressure [bar]"')):
+        assert str(path) in problem.rule and column in problem.rule and "no unit" in problem.rule
+        assert header in problem.rule and "gas.trace.units." in problem.rule
     gas_scene["gas"]["trace"]["units"] = {"angle": "deg", "pressure": "bar"}
     assert hb.load_scene(gas_scene).cylinders[0].gas.trace.pressure[0] == pytest.approx(3e5)
 
@@ -208,7 +219,8 @@ def test_bad_trace_keys(gas_scene, edit, key, needle):
     ({"bore": "86 mm"}, "gas", "exactly one"),
     ({"bore": "86 mm", "trace": {"angle": ANGLES, "pressure": pressures()}, "combustion": combustion()}, "gas",
      "exactly one"),
-    ({"trace": {"angle": ANGLES, "pressure": pressures(), "units": {"angle": "deg"}}}, "gas.bore", "missing"),
+    ({"trace": {"angle": ANGLES, "pressure": pressures(), "units": {"angle": "deg", "pressure": "bar"}}},
+     "gas.bore", "missing"),
     ({"bore": "86 mm", "crankcase_pressure": "1 m", "combustion": combustion()}, "gas.crankcase_pressure",
      "has units m"),
     ({"bore": "86 mm", "combustion": combustion(imep="18 bar")}, "gas.combustion", "exactly one target"),
@@ -265,3 +277,155 @@ def test_cli_run_with_missing_trace_file_exits_2_naming_the_key(tmp_path, gas_sc
     err = capsys.readouterr().err
     assert "gas.trace.file" in err and str(tmp_path / "missing.csv") in err
     assert not archive.exists()
+
+
+# -- every number of a table has a declared unit, and a level a cylinder can have -------------------------------
+
+
+def firing_bar(angles=ANGLES):
+    """A firing four-stroke trace [bar]: 1 bar plus a combustion bump after firing TDC."""
+    wrapped = (np.asarray(angles, float) + 360.0) % 720.0 - 360.0
+    return 1.0 + 60.0 * np.exp(-((wrapped - 10.0) / 25.0) ** 2) + 8.0 * np.exp(-(wrapped / 60.0) ** 2)
+
+
+def trace_csv(tmp_path, pressure_header, scale=1.0, name="trace.csv"):
+    """The firing trace as a CSV file: its pressures in bar times ``scale`` under ``pressure_header``."""
+    rows = [f"{float(a)!r},{float(p * scale)!r}" for a, p in zip(ANGLES, firing_bar())]
+    path = tmp_path / name
+    path.write_text("\n".join([f"angle [deg],{pressure_header}"] + rows) + "\n")
+    return path
+
+
+def test_bar_trace_under_a_bare_pressure_header_is_refused(gas_scene, tmp_path):
+    """The reported bug: "angle [deg],pressure" with values in bar was read as pascals."""
+    path = trace_csv(tmp_path, "pressure")
+    gas_scene["gas"]["trace"] = {"file": str(path)}
+    problem = only_problem(gas_scene)
+    assert (problem.key, problem.value) == ("gas.trace.file", str(path))
+    assert f"{path}, column 2 'pressure': no unit" in problem.rule
+    assert 'write its header as "pressure [bar]"' in problem.rule
+    assert 'set gas.trace.units.pressure = "bar"' in problem.rule
+
+
+def test_bar_trace_declared_in_pascals_is_refused_naming_bar(gas_scene, tmp_path):
+    path = trace_csv(tmp_path, "pressure [Pa]")
+    gas_scene["gas"]["trace"] = {"file": str(path)}
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.file" and f"{path}, column 2 'pressure [Pa]'" in problem.rule
+    assert "whole trace lies at or below the crankcase pressure" in problem.rule
+    assert "gas.crankcase_pressure" in problem.rule and "unit is likely wrong" in problem.rule
+    assert f"in bar it would peak at {firing_bar().max():.6g} bar" in problem.rule
+    assert 'write its header as "pressure [bar]"' in problem.rule
+
+
+def test_header_units_bar_mpa_and_pa_give_the_same_loads(gas_scene, tmp_path):
+    results = []
+    for unit, scale in (("bar", 1.0), ("MPa", 0.1), ("Pa", 1e5)):
+        gas_scene["gas"]["trace"] = {"file": str(trace_csv(tmp_path, f"pressure [{unit}]", scale, f"{unit}.csv"))}
+        scene = hb.load_scene(gas_scene)
+        results.append((np.array(scene.cylinders[0].gas.trace.pressure), hb.analyse(scene)))
+    reference, tree = results[0]
+    np.testing.assert_allclose(reference, firing_bar() * 1e5, rtol=1e-15)
+    for pressure, other in results[1:]:
+        np.testing.assert_allclose(pressure, reference, rtol=1e-12)
+        for group, name in (("time", "force"), ("time", "moment"), ("torque", "gas_force"), ("torque", "gas_torque")):
+            expected = tree[group].ds[name].values
+            got = other[group].ds[name].values
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max(), err_msg=name)
+
+
+def test_bare_inline_lists_are_refused(gas_scene):
+    del gas_scene["gas"]["trace"]["units"]
+    problems = all_problems(gas_scene)
+    assert [p.key for p in problems] == ["gas.trace.angle", "gas.trace.pressure"]
+    assert all(p.rule.startswith("no unit: set gas.trace.units.") for p in problems)
+    gas_scene["gas"]["trace"]["units"] = {"angle": "deg"}
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.pressure" and 'set gas.trace.units.pressure = "bar"' in problem.rule
+
+
+def test_csv_without_a_header_line_is_refused_unless_units_are_given(gas_scene, tmp_path):
+    path = tmp_path / write_csv(tmp_path, csv_text(header=""))
+    gas_scene["gas"]["trace"] = {"file": str(path)}
+    problems = all_problems(gas_scene)
+    assert [p.key for p in problems] == ["gas.trace.file"] * 2
+    assert all(str(path) in p.rule and "no header" in p.rule and '"angle [deg],pressure [bar]"' in p.rule
+               for p in problems)
+    gas_scene["gas"]["trace"]["units"] = {"angle": "deg", "pressure": "bar"}
+    assert hb.load_scene(gas_scene).cylinders[0].gas.trace.pressure == pytest.approx(
+        [p * 1e5 for p in pressures()], rel=1e-15)
+
+
+def test_unknown_header_unit_names_the_column(gas_scene, tmp_path):
+    path = trace_csv(tmp_path, "pressure [psi]")
+    gas_scene["gas"]["trace"] = {"file": str(path)}
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.file" and "column 2 'pressure [psi]': unknown units 'psi'" in problem.rule
+
+
+def test_trace_wholly_below_the_crankcase_pressure_is_refused(gas_scene):
+    gas_scene["gas"]["crankcase_pressure"] = f"{max(pressures()) + 1} bar"
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.pressure" and problem.value == f"maximum {max(pressures()):.6g} bar"
+    assert "the pressure list: the whole trace lies at or below the crankcase pressure" in problem.rule
+    assert f"({max(pressures()) + 1:.6g} bar, gas.crankcase_pressure)" in problem.rule
+    del gas_scene["gas"]["crankcase_pressure"]  # a cylinder's own crankcase pressure is named as its key
+    gas_scene["cylinder"][1]["gas"] = {"crankcase_pressure": f"{max(pressures()) + 1} bar"}
+    assert "cylinder[2].gas.crankcase_pressure" in only_problem(gas_scene).rule
+
+
+@pytest.mark.parametrize("header, scale, crankcase, needle", [
+    ("pressure [MPa]", 1.0, None, "above 500 bar"),  # bar values declared in MPa
+    ("pressure [kPa]", 1.0, None, "at or below the crankcase pressure"),  # ... in kPa
+    ("pressure [mbar]", 1.0, "0.01 bar", "below 1 bar absolute"),  # ... in mbar, over a low crankcase pressure
+])
+def test_peaks_no_cylinder_reaches_are_refused(gas_scene, tmp_path, header, scale, crankcase, needle):
+    gas_scene["gas"]["trace"] = {"file": str(trace_csv(tmp_path, header, scale))}
+    if crankcase:
+        gas_scene["gas"]["crankcase_pressure"] = crankcase
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.file" and needle in problem.rule
+    assert f"in bar it would peak at {firing_bar().max():.6g} bar" in problem.rule
+
+
+@pytest.mark.parametrize("header, scale", [("pressure [kPa]", 3.0), ("pressure [bar]", 6.0)])
+def test_unusual_peaks_read_with_a_warning(gas_scene, tmp_path, header, scale):
+    from harmbal.scene.read_gas import TraceWarning
+
+    path = trace_csv(tmp_path, header, scale)
+    gas_scene["gas"]["trace"] = {"file": str(path)}
+    with pytest.warns(TraceWarning) as record:
+        scene = hb.load_scene(gas_scene)
+    assert len(record) == 1  # once, though both cylinders read the trace
+    text = str(record[0].message)
+    assert "gas.trace.file" in text and str(path) in text and "check its unit" in text
+    expected = firing_bar() * scale * hb.scene.units.to_si(f"1 {header[10:-1]}", "pressure")
+    np.testing.assert_allclose(scene.cylinders[0].gas.trace.pressure, expected, rtol=1e-15)
+
+
+@pytest.mark.parametrize("last", [355.0, 360.0])
+def test_one_revolution_trace_in_a_four_stroke_hints_at_the_cycle(gas_scene, last):
+    angles = list(np.arange(0.0, last + 1.0, 5.0))
+    gas_scene["gas"]["trace"].update(angle=angles, pressure=[2.0 + math.cos(math.radians(a)) for a in angles])
+    problem = only_problem(gas_scene)
+    assert problem.key == "gas.trace.angle" and "trace shorter than a cycle" in problem.rule
+    assert "covers one revolution (360°): if the engine is a two-stroke, set engine.cycle = 2" in problem.rule
+    gas_scene["engine"]["cycle"] = 2
+    assert hb.load_scene(gas_scene).cylinders[0].gas.trace.angle[-1] == pytest.approx(math.radians(355))
+
+
+@pytest.mark.parametrize("header", ["pressure", "pressure [Pa]"])
+def test_cli_run_refuses_a_bar_trace_read_as_pascals(tmp_path, gas_scene, capsys, monkeypatch, header):
+    import tomli_w
+
+    monkeypatch.chdir(tmp_path)
+    trace_csv(tmp_path, header)
+    gas_scene["gas"]["trace"] = {"file": "trace.csv"}
+    (tmp_path / "engine.toml").write_text(tomli_w.dumps(gas_scene))
+    before = sorted(tmp_path.iterdir())
+    assert main(["run", "engine.toml", "-o", "out.nc"]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("harmbal: error: engine.toml: gas.trace.file"), captured.err
+    assert "trace.csv, column 2" in lines[0] and 'write its header as "pressure [bar]"' in lines[0]
+    assert sorted(tmp_path.iterdir()) == before and captured.out == ""

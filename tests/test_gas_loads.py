@@ -14,6 +14,7 @@ import pytest
 import harmbal as hb
 import harmbal.analysis
 import harmbal.views.time
+from conftest import assert_close_to_scale
 from harmbal.model import gas as gas_module
 from harmbal.model.evaluate import evaluate
 from harmbal.model.pressure import cylinder_pressure
@@ -121,7 +122,7 @@ def test_trigonometric_interpolation_is_exact_for_a_band_limited_signal(samples)
     coarse = np.stack([signal(samples), -2 * signal(samples)])
     for fine in (samples, 720, 725, 4096):  # 4096: beyond BASIS_LIMIT, by FFT
         want = np.stack([signal(fine), -2 * signal(fine)])
-        np.testing.assert_allclose(interpolate(coarse, fine), want, rtol=0, atol=1e-13)
+        assert_close_to_scale(interpolate(coarse, fine), want, np.abs(want).max())
     with pytest.raises(ValueError, match="not a finer grid"):
         interpolate(coarse, samples - 1)
 
@@ -572,10 +573,10 @@ def test_piston_travel_is_the_slider_cranks(lam, offset):
         psi = start + 2 * np.pi * np.arange(samples) / samples
         travel, dtravel = _piston_travel(start, samples, r, r / lam, offset, None)
         kin = slider_crank(psi, r, r / lam, offset, None)
-        # Round-off: a few ulps of the travel, and of the angle ψ itself (ε·|ψ|) in the test's ψ.
-        tolerance = 2e-16 * (1 + np.abs(psi).max()) * (r + r / lam)
-        np.testing.assert_allclose(travel, kin.b, rtol=0, atol=tolerance)
-        np.testing.assert_allclose(dtravel, kin.db, rtol=0, atol=tolerance)
+        # Round-off of the travel's scale r + l, and of the angle ψ itself (ε·|ψ|) in the test's ψ.
+        scale = (1 + np.abs(psi).max()) * (r + r / lam)
+        assert_close_to_scale(travel, kin.b, scale)
+        assert_close_to_scale(dtravel, kin.db, scale)
 
 
 @pytest.mark.parametrize("uniform", [True, False])

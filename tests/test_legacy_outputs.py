@@ -8,6 +8,9 @@ and reads a cylinder's samples at θ_j + δ as its type's at θ_(j+m) + f).
 /stars no longer repeats the free vectors: the old ones are compared with
 /orders', as views.stars.with_free_vectors returns them, within the
 aliasing estimates of both paths (the old /stars came from the order domain).
+
+The meaning of /stars' ``*_free`` flags changed with the classes (issue 28): the old
+flag, "not zero to round-off", is compared with ``*_class != 0``.
 """
 
 from pathlib import Path
@@ -23,10 +26,13 @@ ROOT = Path(__file__).resolve().parent.parent
 LEGACY = Path(__file__).parent / "fixtures" / "legacy"
 STEMS = sorted(p.stem for p in LEGACY.glob("*.nc"))
 
-#: Round-off allowed, relative to the load scale of the variable's group.
-RTOL = 1e-15
+#: Round-off allowed, relative to the load scale of the variable's group: another CPU, BLAS build or order of
+#: operations gives other round-off (1.1e-15 of the scale seen here against the archive), so 100 times that.
+RTOL = 1e-13
 #: Attributes that name the code rather than the result.
 CODE_ATTRS = {"harmbal_version"}
+#: Attributes renamed since (issue 33: the prose conventions beside CF's ``Conventions``).
+RENAMED_ATTRS = {"conventions": "harmbal_conventions"}
 #: Attributes that are errors relative to the load scale (aliasing estimates / scale): near round-off they
 #: are round-off themselves, so they are compared like the loads, to RTOL absolute.
 RELATIVE_ERRORS = {"accuracy_reached", "gas_accuracy_reached"}
@@ -82,16 +88,21 @@ def test_outputs_equal_the_legacy_archive(stem, monkeypatch):
                     np.max(new["orders"][f"aliasing_error_{name.split('_')[0]}"].values))
                 _compare(old_ds[[name]], free, f"/{group}", tolerance=alias + RTOL * _scale(old_ds, name),
                          attrs=False)  # /orders' names for them
+            # Issue 28: "free" became "above the negligible level"; the old flag meant "not zero to round-off".
+            for name in ("force", "moment", "roll"):
+                assert np.array_equal(old_ds[f"{name}_free"].values, new_ds[f"{name}_class"].values != 0), name
+            old_ds = old_ds.drop_vars(["force_free", "moment_free", "roll_free"])
         else:
             assert not missing, (group, missing)
         # The old /verify passed attributes on through its label arithmetic by accident (units on booleans).
         _compare(old_ds, new_ds, f"/{group}", attrs=group != "verify")
         for key, value in old_ds.attrs.items():
+            key = RENAMED_ATTRS.get(key, key)
             if key not in CODE_ATTRS:
                 assert key in new_ds.attrs, (group, key)
                 if key in RELATIVE_ERRORS:
                     assert new_ds.attrs[key] == pytest.approx(value, rel=1e-12, abs=RTOL), (group, key)
                 elif isinstance(value, float):
-                    assert new_ds.attrs[key] == pytest.approx(value, rel=1e-12, abs=1e-300), (group, key)
+                    assert new_ds.attrs[key] == pytest.approx(value, rel=1e-12, abs=0), (group, key)
                 elif not isinstance(value, np.ndarray):
                     assert new_ds.attrs[key] == value, (group, key)

@@ -446,7 +446,7 @@ def test_optimum_does_not_depend_on_speed_and_criterion_scales(objective, power)
         data["design"]["objective"] = objective
         results[rpm] = hb.design(hb.load_scene(data))
     slow, fast = results[3000], results[7000]
-    np.testing.assert_allclose(fast.weight, slow.weight, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(fast.weight, slow.weight, rtol=1e-9, atol=1e-12)  # scale: ~1 (kg, m)
     assert fast.criterion == pytest.approx(slow.criterion * (7 / 3) ** power, rel=1e-10)
     assert fast.criterion_start == pytest.approx(slow.criterion_start * (7 / 3) ** power, rel=1e-10)
     # And by the black box at 7000 rpm with the 3000 rpm optimum.
@@ -464,7 +464,7 @@ def test_several_speeds_design_at_the_first_and_verify(optimum, speeds):
     scene = hb.load_scene(data)
     result = hb.design(scene)
     first = float(speeds[0].split()[0])
-    np.testing.assert_allclose(result.weight, optimum.weight, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(result.weight, optimum.weight, rtol=1e-9, atol=1e-12)  # scale: ~1 (kg, m)
     assert result.criterion == pytest.approx(optimum.criterion * (first / 3000) ** 2, rel=1e-10)
     assert black_box(scene, result.weight) == pytest.approx(result.criterion, rel=1e-9)
     assert abs(result.exact_criterion - result.criterion) <= result.tolerance
@@ -490,7 +490,7 @@ def test_moment_of_inertia_changes_neither_optimum_nor_criterion():
         rolls.append(signals(scene, ("moment_x",))[0])
         assert black_box(scene, result.weight) == pytest.approx(result.criterion, rel=1e-9)
     for other in results[1:]:
-        np.testing.assert_allclose(other.weight, results[0].weight, rtol=1e-9, atol=1e-13)
+        np.testing.assert_allclose(other.weight, results[0].weight, rtol=1e-9, atol=1e-13)  # scale: ~1 (kg, m)
         assert other.criterion == pytest.approx(results[0].criterion, rel=1e-12)
         assert other.criterion_start == pytest.approx(results[0].criterion_start, rel=1e-12)
     assert np.abs(rolls[2] - rolls[0]).max() > 1.0  # [N m]
@@ -652,7 +652,7 @@ def test_orders_objective_unconstrained_is_the_least_squares_solution_and_bounds
     for bounds in (dict(mass=None, cg_x=None, cg_y=None), dict(mass=(0.0, 100.0), cg_x=(-1.0, 1.0), cg_y=(-1.0, 1.0))):
         request = dataclasses.replace(base.design, objective="orders", **bounds)
         result = design_lever(base, request)
-        np.testing.assert_allclose(p_of(result.weight), p_free, rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(p_of(result.weight), p_free, rtol=1e-8, atol=1e-12)  # scale: ~1 (kg, kg m)
         assert result.criterion == pytest.approx(free_value, rel=1e-9)
     bounded = design_lever(base, box)
     assert bounded.weight[2] == pytest.approx(box.cg_y[0], rel=1e-9)

@@ -207,7 +207,8 @@ def test_positions_match_the_circle_intersection(r, dist_ratio, pivot_dir, pin_a
     assert np.all(s * cross(C - A, m.b - A) > 0)
     # link angles (rocker arg(B − A), coupler arg(C − B)), compared on the circle
     for angle, vector in ((m.rocker, m.b - A), (m.coupler, C - m.b)):
-        np.testing.assert_allclose(np.exp(1j * angle), vector / np.abs(vector), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(np.exp(1j * angle), vector / np.abs(vector), rtol=0,
+                                   atol=1e-12)  # scale: 1 (unit phasors)
     # sin γ with γ the angle at B of the triangle A-B-C (law of cosines)
     d2 = np.abs(C - A) ** 2
     cos_g = (a * a + b * b - d2) / (2 * a * b)
@@ -348,13 +349,13 @@ def test_closure_minimum_equals_dense_grid_minimum(sense):
         np.testing.assert_allclose(res.range, (abs(a - b), a + b), rtol=1e-15)
         # the extremes of d (derived here) are on the grid, so the grid minimum is exact there
         assert res.min_transmission_angle == pytest.approx(acute.min(), abs=1e-9)
-        assert res.margin == pytest.approx(sin2.min(), rel=1e-9, abs=1e-12)
+        assert res.margin == pytest.approx(sin2.min(), rel=1e-9, abs=1e-12)  # scale: 1 (sin²)
         # and nowhere on the dense grid is it smaller
         assert acute[:-2].min() >= res.min_transmission_angle - 1e-12
         # the crank angle of the minimum (unless both extremes tie)
         at = grid[np.argmin(acute)]
         if abs(acute[-1] - acute[-2]) > 1e-6:
-            assert np.cos(res.min_transmission_theta - at) == pytest.approx(1.0, abs=1e-12)
+            assert np.cos(res.min_transmission_theta - at) == pytest.approx(1.0, abs=1e-12)  # scale: 1 (a cosine)
         # sin γ reported by four_bar agrees with the triangle
         np.testing.assert_allclose(m.sin_gamma, np.sin(gamma), rtol=0, atol=1e-9)
 
@@ -594,6 +595,9 @@ def body_motion(body):
 
 N_SPECTRAL = 96
 THETA = 2 * np.pi * np.arange(N_SPECTRAL) / N_SPECTRAL
+#: What the spectral oracle holds, relative to the loads' scale: its second derivatives of 96 samples
+#: multiply round-off by up to 48², which leaves up to 2e-12 (it varies with the BLAS and SIMD kernels): 15×.
+SPECTRAL = 3e-11
 
 
 def _scenes():
@@ -613,7 +617,7 @@ def test_newton_euler_every_body(dynamics):
     crank_ma = spectral(first_moment, 2)
     f = rx.forces
     peak = max(np.abs(v).max() for v in f.values())
-    tol = 1e-11 * peak  # spectral derivatives of 96 samples: measured ≲ 1e-12 relative
+    tol = SPECTRAL * peak
 
     def check(name, force, moment):
         np.testing.assert_allclose(force, 0, atol=tol, err_msg=f"{name}: force")
@@ -660,7 +664,7 @@ def test_block_force_and_moment(dynamics):
               + sum(f[f"W{c.label}"] for c in scene.cylinders))
     np.testing.assert_allclose(rx.frame_force, frame, rtol=0, atol=1e-13 * peak)
     # ... which is the shaking force −Σ m·a_G (accelerations by spectral differentiation here)
-    np.testing.assert_allclose(rx.frame_force, -total_ma, rtol=0, atol=1e-11 * peak)
+    np.testing.assert_allclose(rx.frame_force, -total_ma, rtol=0, atol=SPECTRAL * peak)
     # moment about the crank axis: T − dH/dθ with H = Σ (G × m·v_G + I·ϑ'), T = dKE/dθ
     # (the crankshaft's own H and KE are constant at constant speed; its unbalances add
     # U-weighted G × a_G = 0, kept for completeness)
@@ -669,8 +673,8 @@ def test_block_force_and_moment(dynamics):
     dh = sum(cross(g, ma) + inertia * dw for _, inertia, g, ma, _, dw, _ in motion.values())
     dh = dh + cross(first_moment, crank_ma)
     moment_scale = 0.3 * peak
-    np.testing.assert_allclose(rx.drive_torque, dke, rtol=0, atol=1e-11 * moment_scale)  # power balance
-    np.testing.assert_allclose(rx.frame_roll, dke - dh, rtol=0, atol=1e-11 * moment_scale)
+    np.testing.assert_allclose(rx.drive_torque, dke, rtol=0, atol=SPECTRAL * moment_scale)  # power balance
+    np.testing.assert_allclose(rx.frame_roll, dke - dh, rtol=0, atol=SPECTRAL * moment_scale)
     # the same from the joint forces: −Σ pos × (frame on body) − wall couples
     roll = -(sum(cross(p[f"F{c.label}"], f[f"W{c.label}"]) for c in scene.cylinders) + rx.wall_couple.sum(axis=0)
              + sum(cross(p[f"{lv.label}: A"], f[f"{lv.label}: A"]) for lv in scene.levers))
@@ -696,13 +700,13 @@ def test_block_force_and_moment(dynamics):
                                            for u in scene.crankshaft_unbalances), 0j)
     x_force = -spectral(first_moment_x, 2) - sum(planes[name] * v[3] for name, v in motion.items())
     my_y, my_z = engine_yz(x_force, sense)
-    np.testing.assert_allclose(ds.moment.sel(axis="y").values, -w2 * my_z, rtol=0, atol=1e-11 * w2 * moment_scale)
-    np.testing.assert_allclose(ds.moment.sel(axis="z").values, w2 * my_y, rtol=0, atol=1e-11 * w2 * moment_scale)
+    np.testing.assert_allclose(ds.moment.sel(axis="y").values, -w2 * my_z, rtol=0, atol=SPECTRAL * w2 * moment_scale)
+    np.testing.assert_allclose(ds.moment.sel(axis="z").values, w2 * my_y, rtol=0, atol=SPECTRAL * w2 * moment_scale)
     # joints reports the same at speed
     js = hb.joints(scene, samples_per_rev=N_SPECTRAL)
-    np.testing.assert_allclose(js.drive_torque.values, w2 * dke, rtol=0, atol=1e-11 * w2 * moment_scale)
+    np.testing.assert_allclose(js.drive_torque.values, w2 * dke, rtol=0, atol=SPECTRAL * w2 * moment_scale)
     np.testing.assert_allclose(js.frame_force.sel(axis="y").values, -w2 * engine_yz(total_ma, sense)[0], rtol=0,
-                               atol=1e-11 * w2 * peak)
+                               atol=SPECTRAL * w2 * peak)
 
 
 def test_link_loads_and_weight_basis(dynamics):
@@ -712,17 +716,17 @@ def test_link_loads_and_weight_basis(dynamics):
         rocker, coupler = motion[f"{lever.label} rocker"], motion[f"{lever.label} coupler"]
         loads = link_loads(lever, m)
         peak = np.abs(coupler[3]).max() + np.abs(rocker[3]).max()
-        np.testing.assert_allclose(loads.force, -(rocker[3] + coupler[3]), rtol=0, atol=1e-11 * peak)
+        np.testing.assert_allclose(loads.force, -(rocker[3] + coupler[3]), rtol=0, atol=SPECTRAL * peak)
         roll = -sum(cross(g, ma) + inertia * dw for _, inertia, g, ma, _, dw, _ in (rocker, coupler))
-        np.testing.assert_allclose(loads.roll, roll, rtol=0, atol=1e-11 * 0.3 * peak)
+        np.testing.assert_allclose(loads.roll, roll, rtol=0, atol=SPECTRAL * 0.3 * peak)
         ke = sum(0.5 * mass * np.abs(v) ** 2 + 0.5 * inertia * w**2 for mass, inertia, _, _, w, _, v in (rocker,
                                                                                                          coupler))
-        np.testing.assert_allclose(loads.power, spectral(ke, 1), rtol=0, atol=1e-11 * 0.3 * peak)
+        np.testing.assert_allclose(loads.power, spectral(ke, 1), rtol=0, atol=SPECTRAL * 0.3 * peak)
         # weight basis: m·a_G of the coupler = basis·(m, m·x_G, m·y_G)
         mass, (x, y) = lever.coupler.mass, lever.coupler.cg
         basis = weight_basis(m)
         np.testing.assert_allclose(np.tensordot([mass, mass * x, mass * y], basis, axes=1), coupler[3], rtol=0,
-                                   atol=1e-11 * np.abs(coupler[3]).max())
+                                   atol=SPECTRAL * np.abs(coupler[3]).max())
 
 
 @pytest.mark.parametrize("rod", ["rigid", "two_point", "two_point_couple"])
@@ -797,7 +801,7 @@ def test_weight_inertia_changes_joints_not_the_shaking_force():
     A, B, C = points["lever: A"], points["lever: B"], points["lever: C"]
     delta_b = d_inertia * dw * (B - A) / cross(B - C, B - A)
     assert np.abs(delta_b).max() > 1e-3 * np.abs(r1.forces["lever: B"]).max()  # the change is not negligible
-    tol = 1e-11 * np.abs(r1.forces["lever: B"]).max()
+    tol = SPECTRAL * np.abs(r1.forces["lever: B"]).max()
     np.testing.assert_allclose(r2.forces["lever: B"] - r1.forces["lever: B"], delta_b, rtol=0, atol=tol)
     np.testing.assert_allclose(r2.forces["lever: C"] - r1.forces["lever: C"], -delta_b, rtol=0, atol=tol)
     np.testing.assert_allclose(r2.forces["lever: A"] - r1.forces["lever: A"], delta_b, rtol=0, atol=tol)
@@ -807,11 +811,11 @@ def test_weight_inertia_changes_joints_not_the_shaking_force():
     # roll on the block: T − dH/dθ changes by ΔI·(ϑ'·ϑ'' − ϑ'')
     roll_change = d_inertia * (w * dw - dw)
     np.testing.assert_allclose(r2.frame_roll - r1.frame_roll, roll_change, rtol=0,
-                               atol=1e-11 * np.abs(r1.frame_roll).max())
+                               atol=SPECTRAL * np.abs(r1.frame_roll).max())
     w2 = s1.speeds[0] ** 2
     d1, d2 = hb.simulate(s1, samples_per_rev=N_SPECTRAL), hb.simulate(s2, samples_per_rev=N_SPECTRAL)
     np.testing.assert_allclose((d2.moment - d1.moment).sel(axis="x").values, s1.sense * w2 * roll_change, rtol=0,
-                               atol=1e-11 * w2 * np.abs(r1.frame_roll).max())
+                               atol=SPECTRAL * w2 * np.abs(r1.frame_roll).max())
 
 
 # --------------------------------------------------------------------------
@@ -903,7 +907,8 @@ def test_mirror_image_engine(which):
         ref = j1[name].values
         np.testing.assert_allclose(j2[name].values, sign * ref, rtol=0, atol=1e-13 * max(np.abs(ref).max(), 1.0),
                                    err_msg=name)
-    np.testing.assert_allclose(j2.transmission_angle.values, j1.transmission_angle.values, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(j2.transmission_angle.values, j1.transmission_angle.values, rtol=0,
+                               atol=1e-15)  # scale: angles in rad, which the mirror keeps bit for bit
 
 
 # --------------------------------------------------------------------------

@@ -43,7 +43,8 @@ def test_no_public_name_is_shadowed_by_a_submodule():
 
 #: The pipeline's stages, bottom to top: a module may import only from its own stage or below.
 STAGES = {"_version": 0, "labelled": 0, "scene": 1, "model": 2, "orders": 3, "views": 4, "balance": 5, "studies": 6,
-          "io": 7, "reporting": 8, "analysis": 9, "bench": 9, "reference": 9, "cli": 10, "__main__": 11, "__init__": 11}
+          "io": 7, "reporting": 8, "analysis": 9, "accessor": 9, "bench": 9, "reference": 9, "cli": 10, "__main__": 11,
+          "__init__": 11}
 
 
 def _imports():
@@ -136,3 +137,37 @@ def test_views_below_the_public_api_do_not_take_the_scene():
                     takers.add(node.name)
     assert "time_dataset" not in takers and "simulate" in takers  # the parser sees both kinds
     assert takers - public == VIEW_EDGE
+
+
+#: Below this, an absolute tolerance written as a bare number is at the round-off of some quantity.
+ROUND_OFF_LEVEL = 1e-9
+#: The comparisons whose absolute tolerance the guard below reads.
+COMPARISONS = {"assert_allclose", "allclose", "isclose", "approx"}
+
+
+def test_round_off_tolerances_are_relative_to_a_scale():
+    # Issue 28: two computations that agree to round-off differ by different round-off on another CPU or BLAS
+    # build, so an absolute tolerance near round-off (atol=1e-15 of a value that is itself round-off) passes where
+    # it was written and fails elsewhere. A tolerance below ROUND_OFF_LEVEL must be a multiple of the quantity's
+    # physical scale (atol=1e-12 * scale, conftest.assert_close_to_scale), or say on its call which scale makes
+    # the bare number one: a comment "# scale: ..." (a unit phasor, angles in rad, a share of 1, exact integers).
+    import ast
+    from pathlib import Path
+
+    offenders, justified = [], 0
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        source = path.read_text(encoding="utf-8")
+        lines = source.splitlines()
+        for node in ast.walk(ast.parse(source)):
+            if not isinstance(node, ast.Call):
+                continue
+            name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+            bare = [k for k in node.keywords if name in COMPARISONS and k.arg in ("atol", "abs")
+                    and isinstance(k.value, ast.Constant) and isinstance(k.value.value, (int, float))
+                    and 0 < k.value.value < ROUND_OFF_LEVEL]
+            if bare and "# scale:" in "\n".join(lines[node.lineno - 1:node.end_lineno]):
+                justified += 1
+            elif bare:
+                offenders.append(f"{path.name}:{node.lineno}: {ast.unparse(bare[0])}")
+    assert not offenders, "absolute tolerances near round-off without a scale:\n" + "\n".join(offenders)
+    assert justified > 0  # the parser sees the comparisons

@@ -193,7 +193,7 @@ def test_instantaneous_combustion_does_the_otto_cycle_work():
                  duration=math.radians(0.5), shape=0.0, efficiency=30.0, peak_pressure=None, imep=10e5)
     trace = combustion_trace(gas, R, L, E)
     work, _ = cycle_work(gas, trace.ivc, trace.evo, step_deg=0.001)
-    assert trace.burnt_at_evo == pytest.approx(1.0, abs=1e-12)
+    assert trace.burnt_at_evo == pytest.approx(1.0, abs=1e-12)  # scale: 1 (a burnt fraction)
     assert work == pytest.approx(trace.heat * (1 - ratio ** (1 - kappa)), rel=1e-4)
 
 

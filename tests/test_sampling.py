@@ -42,7 +42,8 @@ def test_default_is_near_machine_precision_at_ordinary_lambda():
     scene = _scene("V8", 0.3)
     orders = hb.order_spectrum(hb.simulate(scene))
     reference = reference_phasors(scene, scene.sampling.max_order)
-    assert max(relative_errors(orders.force.values, orders.moment.values, reference)) < 2e-15
+    # relative to the load scale: round-off (1.1e-15 seen), with room for another CPU's
+    assert max(relative_errors(orders.force.values, orders.moment.values, reference)) < 2e-14
     assert orders.attrs["samples_per_rev"] <= 64
 
 

@@ -197,7 +197,8 @@ def test_flywheel_for_meets_the_target(mean, target):
     torque = gas_torque(theta)
     j0 = flywheel_for(target, theta, torque, j_var, 250.0, mean=mean)
     assert j0 > 0
-    assert periodic_speed(theta, torque, j0 + j_var, 250.0, mean=mean).coefficient == pytest.approx(target, abs=1e-10)
+    assert periodic_speed(theta, torque, j0 + j_var, 250.0, mean=mean).coefficient == pytest.approx(
+        target, abs=1e-10)  # scale: 1 (a speed ratio)
     # The variable inertia's own (mass) torque adds to the swing at this speed:
     # the classic estimate J ≈ ΔE_max/(δ ω̄²) of the gas work alone falls ~10 % short.
     swing = np.ptp(gas_work(np.linspace(0, 4 * np.pi, 200_001)))
@@ -239,7 +240,8 @@ def test_flywheel_for_refuses_a_target_beyond_the_stall(mean):
     with pytest.raises(ValueError, match="unreachable: the crank train stalls"):
         flywheel_for(3.0, theta, torque, 0.0, 150.0, mean=mean)
     j0 = flywheel_for(1.0, theta, torque, 0.0, 150.0, mean=mean)  # a large one that is met
-    assert periodic_speed(theta, torque, j0, 150.0, mean=mean).coefficient == pytest.approx(1.0, abs=1e-10)
+    assert periodic_speed(theta, torque, j0, 150.0, mean=mean).coefficient == pytest.approx(
+        1.0, abs=1e-10)  # scale: 1 (a speed ratio)
 
 
 def test_flywheel_for_refuses_a_bad_target():

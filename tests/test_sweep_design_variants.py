@@ -103,9 +103,14 @@ def _assert_equals_design(out, i, scene, huge=False):
     force_scale, moment_scale = grow * unit.force_scale, grow * unit.moment_scale
     np.testing.assert_allclose(out["unbalance"][i], unbalance, rtol=0, atol=RTOL * force_scale, err_msg="unbalance")
 
-    np.testing.assert_array_equal(out["cancelled"][i], ds.cancelled.values)
     scale = np.where(ds.component_units.values == "N", force_scale, moment_scale)
     predicted = ds.predicted.values / scene.speeds[0] ** 2
+    differ = out["cancelled"][i] != ds.cancelled.values
+    if huge:
+        # Next to huge unbalances "cancelled" is a threshold on their round-off, which other CPUs' BLAS kernels
+        # round differently: the two may disagree only where the residual is within that round-off.
+        differ &= np.abs(predicted) > RTOL * scale
+    assert not differ.any(), ("cancelled", out["cancelled"][i], ds.cancelled.values)
     assert (np.abs(out["residual"][i] - predicted) <= RTOL * scale).all(), "residual"
 
     verified = order_phasors(evaluate(d.scene))

@@ -40,13 +40,16 @@ from ..scene.elements import Shaft, ShaftUnbalance
 from ..model.balancers import shaft_loads, shaft_phasors
 from ..orders.phasors import order_phasors
 from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio)
-from ..orders.spectrum import BALANCED_RTOL, rotating_split
+from ..orders.spectrum import ZERO, ZERO_RTOL, classify, rotating_split
 from ..scene import Scene, SceneError, scene_from_text
 from .counterweights import SizedBlank, size_blank
 from .solvers import LP_TOLERANCES, DesignError
 from ..scene.writer import (angle_text, blank_table, length_text, quantity_text, signed_angle_text, toml_tables,
                             with_engine, without_tables)
 from ..model.evaluate import moment_about, evaluate
+from ..model.sampling import choose_samples
+from .verify import (CHECKED_ORDER, checked_orders, describe_component, made_worse_check, worsened_messages,
+                     zero_below_round_off)
 
 
 #: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the
@@ -63,8 +66,11 @@ class Design:
     targets and the predicted residuals, and no ``[design]`` table).
     ``elements`` are the designed balancer elements; ``dataset`` holds, per
     targeted order and component, the value without the new elements, the
-    predicted residual and whether it is cancelled; ``messages`` explain in
-    words what could not be cancelled.
+    predicted residual and whether it is cancelled, and over every order the
+    components made worse; ``messages`` explain in words what could not be
+    cancelled; ``worsened`` names, one sentence each, the components that
+    are not targeted and that the new elements make worse (warnings: they do
+    not make the design infeasible).
     """
 
     scene: Scene
@@ -72,11 +78,25 @@ class Design:
     elements: tuple[Shaft, ...]
     dataset: object
     messages: tuple[str, ...]
+    worsened: tuple[str, ...] = ()
 
     @property
     def feasible(self) -> bool:
         """True if every targeted component is cancelled."""
         return not self.messages
+
+    def __repr__(self) -> str:
+        """What was designed (elements, unbalance [kg mm], angle [deg]) and
+        what remains (targets before → predicted [N or N m], made worse)."""
+        from .summaries import design_text
+
+        return design_text(self.dataset, self.scene.name, self.messages, self.worsened)
+
+    def _repr_html_(self) -> str:
+        """:meth:`__repr__` as HTML tables, for notebooks."""
+        from .summaries import design_html
+
+        return design_html(self.dataset, self.scene.name, self.messages, self.worsened)
 
 
 def _element_phasors(placements: tuple[Placement, ...], value: complex, kmax: int, sense: int,
@@ -176,13 +196,6 @@ def _remedy(order: int, name: str) -> str:
     return f"a −{order}× shaft"
 
 
-def _describe(order: int, name: str) -> str:
-    if name == "roll":
-        return f"order {order} roll moment"
-    what, rotation = name.split("_")
-    return f"order {order} {rotation}-rotating {what}"
-
-
 def _check_request(scene: Scene, request: DesignRequest | None) -> None:
     """Refuse a request that cannot be set up: none, a scene that does not
     simulate balancers, orders or shaft ratios above the scene's max_order."""
@@ -220,7 +233,14 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     -------
     Design
         The designed elements, the output scene (text and loaded), the
-        predicted residuals and messages on what cannot be cancelled.
+        predicted residuals and messages on what cannot be cancelled; and,
+        over every order 1 … ``max_order`` (dim ``checked_order``), the
+        components that are not targeted and that the new elements make
+        worse (``dataset["worsened"]``, ``Design.worsened`` in words): free
+        with them and grown by more than the negligible level
+        (``force_negligible_level`` [N], ``moment_negligible_level`` [N m]:
+        the scene's ``[model] negligible`` × the designed scene's load scale
+        / the number of cylinders, at the design speed).
 
     Raises
     ------
@@ -278,20 +298,21 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     for (k, component), cancelled in ok.items():
         if cancelled:  # round-off, not a prediction: no noise phase
             predicted[component][k] = 0
-    before = {n: np.where(np.abs(v) <= BALANCED_RTOL * scales[n], 0, v)
+    before = {n: zero_below_round_off(v, scales[n])
               for n, v in _components(engine.force, engine.moment, sense).items()}
     w2 = scene.speeds[0] ** 2
     messages = _messages(request, targets, ok, predicted, before, a, w2, scene.speeds[0])
-    messages += _height_hints(request, values, predicted, ok, (kmax, sense, ref), w2, BALANCED_RTOL * moment_scale)
+    messages += _height_hints(request, values, predicted, ok, (kmax, sense, ref), w2, ZERO_RTOL * moment_scale)
     messages += _bound_messages(request, values)
 
     blanks: dict[str, SizedBlank] = {}  # filled as the elements are written
     text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
-                       negligible=BALANCED_RTOL * force_scale, blanks=blanks)
+                       negligible=ZERO_RTOL * force_scale, blanks=blanks)
     try:
         designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)"), source=scene.source)
     except SceneError as exc:  # e.g. a candidate's label already names an element of the scene
         raise DesignError(f"the designed scene does not load:\n{exc}") from None
+    designed = designed.with_negligible(scene.model.negligible)  # e.g. set by --negligible, not in the text
     labels = {e.label for e in scene.shafts}
     elements = tuple(e for e in designed.shafts if e.label not in labels)
 
@@ -299,10 +320,10 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     data = {
         "before": (("order", "component"), w2 * np.array([[before[n][k] for n in target_names]
                                                              for k in request.orders]),
-                   {"long_name": "phasor without the designed elements", "units": "N or N m (see component_units)"}),
+                   {"long_name": "phasor without the designed elements", "units_by_component": "component_units"}),
         "predicted": (("order", "component"), w2 * np.array([[predicted[n][k] for n in target_names]
                                                                 for k in request.orders]),
-                      {"long_name": "residual phasor the design predicts", "units": "N or N m (see component_units)"}),
+                      {"long_name": "residual phasor the design predicts", "units_by_component": "component_units"}),
         "targeted": (("order", "component"), np.array([[(k, n) in targets for n in target_names]
                                                         for k in request.orders])),
         "cancelled": (("order", "component"), np.array([[ok.get((k, n), False) for n in target_names]
@@ -311,6 +332,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
                       {"units": "kg m", "long_name": "designed unbalance (mass x radius)"}),
         "unbalance_angle": ("element", [float(np.angle(v)) for c in request.candidates for v in values[c.label]],
                             {"units": "rad", "long_name": "direction of the unbalance at theta = 0"}),
+        **_made_worse(engine, designed, targets),
     }
     coords = {
         "order": ("order", list(request.orders), {"long_name": "order of crank speed"}),
@@ -319,6 +341,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         "element": ("element", [n for c in request.candidates for n in c.names()]),
         "speed": ((), scene.speeds[0], {"units": "rad/s"}),
         "rpm": ((), scene.speeds[0] * 30 / math.pi, {"units": "rpm"}),
+        CHECKED_ORDER: (CHECKED_ORDER, checked_orders(kmax), {"long_name": "order compared for components made worse"}),
     }
     dataset = xr.Dataset(data, coords, {
         "title": f"harmbal balancer design: {scene.name}",
@@ -328,8 +351,33 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         "feasible": "no" if messages else "yes",
         "messages": "\n".join(messages),
         "blanks": "\n".join(_blank_note(label, sized) for label, sized in blanks.items()),
+        "negligible": scene.model.negligible,
+        "zero_rtol": ZERO_RTOL,
     })
-    return Design(designed, text, elements, dataset, tuple(messages))
+    worsened = worsened_messages(dataset, by="the designed elements")
+    dataset.attrs["worsened"] = "\n".join(worsened)
+    return Design(designed, text, elements, dataset, tuple(messages), tuple(worsened))
+
+
+def _made_worse(engine, designed: Scene, targets) -> dict:
+    """The made-worse check of every order and component at the design
+    speed: the engine's order phasors (with the elements it already has)
+    against those of the designed scene, judged by the designed scene's
+    load scales on verify's samples (the scales :func:`harmbal.verify`
+    judges it by: the bodies' peaks are sampled), with ``force_scale`` [N]
+    and ``moment_scale`` [N m]."""
+    after = order_phasors(evaluate(designed, max(choose_samples(designed), PEAK_SAMPLES)))
+    w2 = designed.speeds[0] ** 2
+    scales = (w2 * float(after.peak_force.sum() + after.crankshaft_peak_force),
+              w2 * float(after.peak_moment.sum() + after.crankshaft_peak_moment))
+    names = [n for n, _ in COMPONENTS]
+    before, after = (w2 * np.array([_components(p.force, p.moment, designed.sense)[n] for n in names])[:, 1:].T
+                     for p in (engine, after))  # (order 1 … max_order, component)
+    targeted = np.array([[(k, n) in targets for n in names] for k in checked_orders(designed.sampling.max_order)])
+    return {**made_worse_check(before, after, targeted, scales, len(designed.cylinders), designed.model.negligible),
+            **{f"{kind}_scale": ((), s, {"units": units, "long_name": f"sum of single-body peak {kind}s of the "
+                                                                       "designed scene"})
+               for kind, units, s in (("force", "N", scales[0]), ("moment", "N m", scales[1]))}}
 
 
 #: Singular values at most this fraction of the whole (weighted) matrix's
@@ -399,7 +447,8 @@ def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:
     """Targets whose (weighted) residual is zero up to round-off."""
     n = len(targets)
     size = np.hypot(residual[:n], residual[n:])
-    return {t: bool(s <= BALANCED_RTOL) for t, s in zip(targets, size)}
+    zero = classify(size, 1.0, 0.0) == ZERO  # the rows are divided by the load scales: the scale is 1
+    return {t: bool(z) for t, z in zip(targets, zero)}
 
 
 def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str]:
@@ -414,17 +463,18 @@ def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str
         units = "N" if name.startswith("force") else "N m"
         left = abs(predicted[name][k]) * w2
         was = abs(before[name][k]) * w2
-        acting = np.hypot(a[row], a[row + n]) > BALANCED_RTOL * np.abs(a).max(initial=0.0)
+        acting = np.hypot(a[row], a[row + n]) > ZERO_RTOL * np.abs(a).max(initial=0.0)
         fixed = [c.label for c in request.candidates if c.balance_factor is not None]
+        what = describe_component(k, name)
         if not acting.any() and k == 1 and name.endswith("_co") and fixed:
-            messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm is what the balance factor "
+            messages.append(f"{what} {left:.4g} {units} at {rpm:.6g} rpm is what the balance factor "
                             f"of {', '.join(map(repr, fixed))} leaves (0.5 cancels it); to cancel it add a +1× shaft")
         elif not acting.any():
             names = ", ".join(c.describe() for c in request.candidates if c.balance_factor is None) or "the candidates"
-            messages.append(f"{_describe(k, name)} {left:.4g} {units} at {rpm:.6g} rpm cannot be cancelled by "
+            messages.append(f"{what} {left:.4g} {units} at {rpm:.6g} rpm cannot be cancelled by "
                             f"{names}; add {_remedy(k, name)}")
         else:
-            messages.append(f"{_describe(k, name)} is left at {left:.4g} {units} (was {was:.4g} {units}) at {rpm:.6g} "
+            messages.append(f"{what} is left at {left:.4g} {units} (was {was:.4g} {units}) at {rpm:.6g} "
                             f"rpm: the elements acting at order {k} have too few degrees of freedom for all the "
                             "targets (force first, then moment, then roll); add a plane or a shaft")
     return messages

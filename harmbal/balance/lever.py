@@ -99,6 +99,19 @@ class LeverDesign:
     text: str
     scene: Scene
 
+    def __repr__(self) -> str:
+        """The weight (mass [kg], CG [mm]) and criterion at the start and
+        found, and the exact model's check."""
+        from .summaries import lever_text
+
+        return lever_text(self)
+
+    def _repr_html_(self) -> str:
+        """:meth:`__repr__` as HTML tables, for notebooks."""
+        from .summaries import lever_html
+
+        return lever_html(self)
+
 
 def _lever(scene: Scene, label: str | None) -> tuple[int, LeverBalancer]:
     if not scene.levers:

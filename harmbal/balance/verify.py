@@ -9,6 +9,12 @@ predicted (the scene's ``[verify]`` table, written by ``harmbal design``) and
 passes if they agree within the tolerance; the loads without any balancer
 elements give the "before" values, the peaks over the revolution per axis and
 the percentage removed.
+
+Every order up to the scene's ``max_order`` and every component is also
+compared before and after: a component that is not targeted and that the
+elements make worse is named (:func:`made_worse_variables`,
+:func:`worsened_messages`; :func:`harmbal.design` runs the same check in the
+order domain, on the scene it writes).
 """
 
 from __future__ import annotations
@@ -19,7 +25,8 @@ import numpy as np
 from ..labelled import Speeds, dataset
 from ..model.evaluate import evaluate
 from ..model.sampling import choose_samples
-from ..orders.spectrum import BALANCED_RTOL, phasors, rotating_split
+from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO, ZERO_RTOL, classify, negligible_level, phasors,
+                               rotating_split)
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
 from ..views.stars import VERIFY_RTOL
@@ -36,6 +43,144 @@ def _components(spectrum: np.ndarray, sense: int) -> np.ndarray:
     co_f, counter_f = rotating_split(spectrum[0, 2], -sense * spectrum[0, 1])
     co_m, counter_m = rotating_split(spectrum[1, 2], -sense * spectrum[1, 1])
     return np.stack([co_f, counter_f, co_m, counter_m, spectrum[1, 0]])
+
+
+#: The dimension of the made-worse check: every order 1 … max_order.
+CHECKED_ORDER = "checked_order"
+#: Which components of :data:`COMPONENTS` are forces (the others are moments).
+IS_FORCE = np.array([group == "force" for _, group in COMPONENTS])
+#: Attributes of a variable over ``component`` in place of ``units`` (N for the force components, N m for the
+#: moment and roll ones, no one string for both): the coordinate that holds each component's units.
+BY_COMPONENT = {"units_by_component": "component_units"}
+
+
+def describe_component(order: int, name: str) -> str:
+    """A component of :data:`COMPONENTS` in words, e.g. ``order 1 roll
+    moment`` or ``order 2 counter-rotating force``."""
+    if name == "roll":
+        return f"order {order} roll moment"
+    what, rotation = name.split("_")
+    return f"order {order} {rotation}-rotating {what}"
+
+
+def per_component(force, moment) -> np.ndarray:
+    """``force`` [N] for the force components and ``moment`` [N m] for the
+    others, along a new last axis ``component``; ``force`` and ``moment``
+    are scalars or arrays of the same shape (e.g. one value per speed)."""
+    return np.where(IS_FORCE, np.expand_dims(force, -1), np.expand_dims(moment, -1))
+
+
+def zero_below_round_off(values: np.ndarray, scale) -> np.ndarray:
+    """``values`` with the components of the class *zero* (at most ZERO_RTOL
+    × the load ``scale``, round-off) set to exactly 0: no noise phase."""
+    return np.where(classify(values, scale, 0.0) == ZERO, 0, values)
+
+
+def made_worse_variables(before: np.ndarray, after: np.ndarray, targeted: np.ndarray, scale: np.ndarray,
+                         level: np.ndarray, lead: tuple[str, ...] = ()) -> dict:
+    """The variables of the made-worse check of every order and component.
+
+    Parameters
+    ----------
+    before, after : ndarray of complex, shape (lead..., checked_order, component)
+        Phasors [N or N m] without and with the elements judged.
+    targeted : ndarray of bool, shape (checked_order, component)
+        The components the elements are meant to cancel.
+    scale, level : ndarray, shape (lead..., component)
+        The load scale and the negligible level [N or N m] of each component
+        (:func:`per_component`).
+    lead : tuple of str
+        The leading dims (``("speed",)`` for several speeds).
+
+    Returns
+    -------
+    dict
+        ``amplitude_before``/``_after`` [N or N m], their classes
+        ``class_before``/``class_after`` (int8 codes of
+        :data:`~harmbal.orders.spectrum.CLASSES`) and ``worsened``: not
+        targeted, free after, and grown by more than the negligible level
+        (so round-off and negligible changes never count).
+    """
+    scale, level = scale[..., None, :], level[..., None, :]  # broadcast over the orders
+    was, now = np.abs(before), np.abs(after)
+    class_was, class_now = classify(was, scale, level), classify(now, scale, level)
+    worse = ~targeted & (class_now == FREE) & (now - was > level)
+    dims = lead + (CHECKED_ORDER, "component")
+    return {
+        "amplitude_before": (dims, was, {**BY_COMPONENT,
+                                         "long_name": "amplitude without the elements, every order"}),
+        "amplitude_after": (dims, now, {**BY_COMPONENT,
+                                        "long_name": "amplitude with the elements, every order"}),
+        "class_before": (dims, class_was, {"long_name": "class without the elements", **CLASS_ATTRS}),
+        "class_after": (dims, class_now, {"long_name": "class with the elements", **CLASS_ATTRS}),
+        "worsened": (dims, worse, {"long_name": "component not targeted that the elements make worse: free with "
+                                                "them and grown by more than the negligible level"}),
+    }
+
+
+def made_worse_check(before: np.ndarray, after: np.ndarray, targeted: np.ndarray, scales: tuple, cylinders: int,
+                     negligible: float, lead: tuple[str, ...] = ()) -> dict:
+    """:func:`made_worse_variables` with the negligible levels
+    ``force_negligible_level`` [N] and ``moment_negligible_level`` [N m]:
+    ``negligible`` (``[model] negligible``) × one cylinder's share of the
+    load ``scales`` (force [N], moment [N m], scalars or one per speed)."""
+    levels = {f"{kind}_negligible_level": (lead, negligible_level(s, cylinders, negligible), {
+        "units": units, "long_name": f"{kind} amplitude at or below which a component is negligible"})
+        for kind, units, s in (("force", "N", scales[0]), ("moment", "N m", scales[1]))}
+    return {**made_worse_variables(before, after, targeted, per_component(*scales), component_levels(levels), lead),
+            **levels}
+
+
+def component_levels(variables: dict) -> np.ndarray:
+    """The negligible level of each component (lead..., component) from the
+    ``force_negligible_level`` and ``moment_negligible_level`` variables."""
+    return per_component(variables["force_negligible_level"][1], variables["moment_negligible_level"][1])
+
+
+def checked_orders(max_order: int) -> np.ndarray:
+    """The orders the made-worse check compares: 1 … ``max_order``."""
+    return np.arange(1, max_order + 1)
+
+
+def worsened_rows(ds):
+    """(order, component, before, after, units, rpm) of every component made
+    worse in a design or verify Dataset, at the first speed where it is."""
+    if "worsened" not in ds:  # an archive written before the check existed
+        return
+    flags = ds["worsened"].values
+    shape = (-1,) + flags.shape[-2:]
+    flags = flags.reshape(shape)  # (speed, checked_order, component)
+    was, now = (ds[name].values.reshape(shape) for name in ("amplitude_before", "amplitude_after"))
+    rpm = np.atleast_1d(ds["rpm"].values)
+    for i, j in zip(*np.nonzero(flags.any(axis=0))):
+        s = int(np.argmax(flags[:, i, j]))
+        yield (int(ds[CHECKED_ORDER].values[i]), str(ds["component"].values[j]), float(was[s, i, j]),
+               float(now[s, i, j]), str(ds["component_units"].values[j]), float(rpm[s]))
+
+
+def worsened_messages(ds, by: str = "the balancer elements") -> list[str]:
+    """One sentence per component made worse in a design or verify Dataset,
+    e.g. ``order 1 roll moment made worse by the designed elements: 6.3788 →
+    67.612 N m at 6400 rpm (not targeted)``."""
+    return [f"{describe_component(k, name)} made worse by {by}: {was:.5g} → {now:.5g} {units} at {rpm:.6g} rpm "
+            "(not targeted)" for k, name, was, now, units, rpm in worsened_rows(ds)]
+
+
+def targeted_orders(max_order: int, orders, targeted: np.ndarray) -> np.ndarray:
+    """Which components of every order 1 … ``max_order`` are targeted
+    (checked_order, component): those ``targeted`` (component,) of the
+    ``orders`` asked for."""
+    return np.isin(checked_orders(max_order), list(orders))[:, None] & targeted
+
+
+def _made_worse(scene: Scene, unit, phasors_before_after, targeted: np.ndarray, speeds: Speeds) -> dict:
+    """The made-worse check of :func:`verify`: the phasors (component, order
+    0 … max_order) at unit speed without and with the balancer elements,
+    compared at every speed."""
+    at_speed = speeds.scaled
+    before, after = (at_speed(values[:, 1:].T) for values in phasors_before_after)  # (lead..., order, component)
+    return made_worse_check(before, after, targeted, (at_speed(unit.force_scale), at_speed(unit.moment_scale)),
+                            len(scene.cylinders), scene.model.negligible, speeds.lead)
 
 
 def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str = "scipy"):
@@ -65,7 +210,17 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         over the revolution (all orders) with ``peak_force_removed`` and
         ``peak_moment_removed`` [%]; per order and axis, the amplitudes
         ``force_before``/``force_after`` (and moment) with the share removed.
-        The attribute ``passed`` is ``"yes"`` if everything passes.
+        ``exact_class`` is the class of each exact residual (0 zero,
+        1 negligible, 2 free; :func:`harmbal.orders.spectrum.classify`).
+        Over ``checked_order`` (every order 1 … ``max_order``) and
+        ``component``: ``amplitude_before``/``_after``, ``class_before``/
+        ``_after`` and ``worsened`` (not targeted, free with the elements and
+        grown by more than the negligible level); ``force_negligible_level``
+        [N] and ``moment_negligible_level`` [N m] are ``[model] negligible``
+        (the attribute ``negligible``) × the load scale / the number of
+        cylinders. The attribute ``passed`` is ``"yes"`` if everything
+        passes; ``worsened`` names the components made worse, one per line
+        (empty if none).
 
     Raises
     ------
@@ -84,14 +239,15 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     unit = evaluate(scene, samples)  # one evaluation: "before" is the same loads without the elements
     orders = list(request.orders)
     after, before = np.stack(unit.total()), np.stack(unit.total(elements=False))  # (force/moment, axis, angle)
-    spectra = phasors(np.stack([after, before]), backend)[..., : max(orders) + 1]  # (after/before, f/m, axis, order)
+    kmax = scene.sampling.max_order  # every order is checked for components made worse
+    spectra = phasors(np.stack([after, before]), backend)[..., : kmax + 1]  # (after/before, f/m, axis, order)
     # The co/counter split needs the orders from 0 (order 0 is a fixed vector); then keep the orders asked for.
-    exact, unbalanced = (_components(spectrum, unit.sense)[:, orders] for spectrum in spectra)  # (component, order)
+    exact_all, unbalanced_all = (_components(spectrum, unit.sense) for spectrum in spectra)  # (component, order)
+    exact, unbalanced = exact_all[:, orders], unbalanced_all[:, orders]
     spectra = spectra[..., orders]
     alias_force, alias_moment = body_aliasing(unit, backend)
 
     names = [n for n, _ in COMPONENTS]
-    is_force = np.array([g == "force" for _, g in COMPONENTS])
     targeted = np.array([g in request.cancel for _, g in COMPONENTS])
     speeds = Speeds(scene.speeds)
     w2, lead, at_speed = np.asarray(speeds.w2), speeds.lead, speeds.scaled
@@ -102,8 +258,10 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     ratio = w2 / request.speed**2 if request.speed else np.ones_like(w2)  # predictions scale with ω² too
     predicted = np.multiply.outer(ratio, predicted) if lead else ratio * predicted
     exact, unbalanced = at_speed(exact.T), at_speed(unbalanced.T)  # (speed, order, component)
-    scale = np.where(is_force, at_speed(unit.force_scale)[..., None], at_speed(unit.moment_scale)[..., None])
-    alias = np.where(is_force, at_speed(alias_force.max())[..., None], at_speed(alias_moment.max())[..., None])
+    scale = per_component(at_speed(unit.force_scale), at_speed(unit.moment_scale))
+    alias = per_component(at_speed(alias_force.max()), at_speed(alias_moment.max()))
+    worse = _made_worse(scene, unit, (unbalanced_all, exact_all), targeted_orders(kmax, orders, targeted), speeds)
+    level = component_levels(worse)
     scale, alias = scale[..., None, :], alias[..., None, :]  # broadcast over order
     tolerance = request.tolerance * np.abs(unbalanced) + VERIFY_RTOL * scale + alias
     difference = np.abs(exact - predicted)
@@ -112,22 +270,25 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     def removed(was, now, scale):
         """Share removed [%]; 0 where there was nothing to remove."""
         share = 100 * (1 - now / np.where(was > 0, was, 1))
-        return np.where(was > BALANCED_RTOL * scale, share, 0.0)
+        return np.where(was > ZERO_RTOL * scale, share, 0.0)
 
     ocx = lead + ("order", "component")
     described = ("w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta); t points 90 deg ahead of +z in the "
                  "direction of rotation; roll: the order phasor of the moment about x")
     data = {
-        "before": (ocx, np.where(np.abs(unbalanced) <= BALANCED_RTOL * scale, 0, unbalanced),
-                   {"long_name": "phasor without balancer elements", "units": "N or N m", "description": described}),
-        "predicted": (ocx, predicted, {"long_name": "residual phasor the design predicted", "units": "N or N m",
-                                     "description": described}),
-        "exact": (ocx, exact, {"long_name": "residual phasor of the exact model", "units": "N or N m",
-                                 "description": described}),
-        "difference": (ocx, difference, {"long_name": "|exact - predicted|", "units": "N or N m"}),
-        "tolerance": (ocx, tolerance, {"units": "N or N m", "long_name": "largest |exact - predicted| that passes"}),
+        "before": (ocx, zero_below_round_off(unbalanced, scale),
+                   {"long_name": "phasor without balancer elements", **BY_COMPONENT, "description": described}),
+        "predicted": (ocx, predicted, {"long_name": "residual phasor the design predicted", **BY_COMPONENT,
+                                       "description": described}),
+        "exact": (ocx, exact, {"long_name": "residual phasor of the exact model", **BY_COMPONENT,
+                               "description": described}),
+        "difference": (ocx, difference, {"long_name": "|exact - predicted|", **BY_COMPONENT}),
+        "tolerance": (ocx, tolerance, {**BY_COMPONENT, "long_name": "largest |exact - predicted| that passes"}),
         "targeted": ("component", targeted, {"long_name": "component the design cancels"}),
         "passed": (ocx, passed, {"long_name": "difference within the tolerance (always for components not targeted)"}),
+        "exact_class": (ocx, classify(exact, scale, level[..., None, :]), {
+            "long_name": "class of the exact residual", **CLASS_ATTRS}),
+        **worse,
     }
     for j, (name, units) in enumerate((("force", "N"), ("moment", "N m"))):
         s = at_speed(unit.force_scale if name == "force" else unit.moment_scale)
@@ -151,9 +312,10 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         "component": ("component", names, {}),
         "component_units": ("component", ["N" if g == "force" else "N m" for _, g in COMPONENTS], {}),
         "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
+        CHECKED_ORDER: (CHECKED_ORDER, checked_orders(kmax), {"long_name": "order compared for components made worse"}),
     })
     ok = bool(passed.all())
-    return dataset(data, coords, {
+    check = dataset(data, coords, {
         "title": f"harmbal verification of balancer elements: {scene.name}",
         "engine": scene.name,
         "samples_per_rev": samples,
@@ -162,4 +324,9 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
                            "peak loads + aliasing estimate"),
         "predicted_speed": request.speed if request.speed else "none (every targeted component must vanish)",
         "passed": "yes" if ok else "no",
+        "negligible": scene.model.negligible,
+        "zero_rtol": ZERO_RTOL,
+        "worsened": "",
     })
+    check.attrs["worsened"] = "\n".join(worsened_messages(check))
+    return check

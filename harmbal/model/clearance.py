@@ -268,8 +268,7 @@ def clearance(scene: Scene, *, samples: int = CLEARANCE_SAMPLES):
             "cylinder_b": ("pair", np.array([scene.cylinders[b.plane].label for _, b in pairs], dtype=str)),
         },
         {"title": f"harmbal clearance check: {scene.name}", "engine": scene.name, "samples": samples,
-         "conventions": "Outlines in the plane normal to the crank axis, each in a body's frame of one cylinder; "
-                       "crank angle theta in the direction of rotation, 0 when "
-                        "throw 1 points along +z; distances exact for convex polygons grown by radii "
-                        "(docs/shapes.md)."},
+         "harmbal_conventions": "Outlines in the plane normal to the crank axis, each in a body's frame of one "
+                                "cylinder; crank angle theta in the direction of rotation, 0 when throw 1 points "
+                                "along +z; distances exact for convex polygons grown by radii (docs/shapes.md)."},
     )

@@ -42,7 +42,7 @@ from ..scene.elements import TRANSMISSION_WARNING, closure
 from .linkage import four_bar, to_engine
 from ..scene import Scene
 from .sampling import choose_samples
-from ..labelled import Speeds
+from ..labelled import Speeds, with_speed_indexes
 
 
 def _cross(p, q):
@@ -259,11 +259,12 @@ def joints(scene: Scene, *, samples_per_rev: int | None = None):
             "discriminant_margin": (("lever",), [c.margin for c in checks],
                                     {"units": "1", "long_name": "closure margin min Δ/(4a²b²) = min sin²γ"}),
         })
-    return xr.Dataset(data, coords, attrs={
+    return with_speed_indexes(xr.Dataset(data, coords, attrs={
         "title": f"harmbal joint forces: {scene.name}",
         "engine": scene.name,
         "samples_per_rev": n,
         "transmission_warning": math.degrees(TRANSMISSION_WARNING),
-        "conventions": "joint_force: force of the first-named body on the second (joint_description), engine "
-                       "axes y, z; constant crank speed, no gas forces, whole mechanism whatever model.effects.",
-    })
+        "harmbal_conventions": "joint_force: force of the first-named body on the second (joint_description), "
+                               "engine axes y, z; constant crank speed, no gas forces, whole mechanism whatever "
+                               "model.effects.",
+    }))

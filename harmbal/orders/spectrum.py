@@ -18,12 +18,26 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.sampling import ALIAS_SAFETY
+from ..scene.schema import DEFAULT_NEGLIGIBLE
 
 FFT_BACKENDS = ("scipy", "numpy", "pyfftw")
 
-#: Relative tolerance (of the single-body load scale) below which an order
-#: component is reported as balanced: its phase would be round-off noise.
-BALANCED_RTOL = 1e-10
+#: Relative tolerance (of the load scale, the sum of the single bodies' peak
+#: loads) at or below which an order component is *exactly zero*: what is left
+#: is round-off of the model and the FFT (at most ~1e-15 of the scale, and the
+#: aliasing the sampling leaves, ≤ the accuracy asked, 1e-12 by default), so its
+#: phase means nothing. Shown as 0, without a phase.
+ZERO_RTOL = 1e-10
+#: The former name of :data:`ZERO_RTOL` (archives carry it as ``balanced_rtol``).
+BALANCED_RTOL = ZERO_RTOL
+
+#: The three classes of an order component (docs/conventions.md): exact zero
+#: (round-off), negligible (at or below the negligible level: nobody would act
+#: on it) and free (what a balancer or a mount must deal with). Stored in the
+#: datasets as int8 codes 0, 1, 2 with CF ``flag_values``/``flag_meanings``.
+CLASSES = ("zero", "negligible", "free")
+ZERO, NEGLIGIBLE, FREE = 0, 1, 2
+CLASS_ATTRS = {"flag_values": np.array([ZERO, NEGLIGIBLE, FREE], dtype=np.int8), "flag_meanings": " ".join(CLASSES)}
 
 ROTATION = ("co", "counter")
 
@@ -45,7 +59,7 @@ def rfft(values: np.ndarray, backend: str = "scipy", workers: int | None = None)
         try:
             import pyfftw.interfaces.scipy_fft as fftw
         except ImportError:
-            raise ImportError("the pyfftw backend needs pyFFTW: pip install 'harmbal[fftw]'") from None
+            raise ImportError("the pyfftw backend needs pyFFTW: pip install pyFFTW (the extra harmbal[fftw])") from None
         return fftw.rfft(values, axis=-1, workers=workers or 1)
     raise ValueError(f"unknown FFT backend {backend!r}; choose one of {', '.join(FFT_BACKENDS)}")
 
@@ -128,6 +142,35 @@ def _one_estimate(magnitudes: np.ndarray, samples: int, max_order: int, slowest_
         fitted, extrapolated = slowest_rate, extrapolated * (max(samples - max_order, i2) / i2) ** 3
     extrapolated *= fitted ** max(samples - max_order - i2, 0)
     return max(extrapolated, ROUND_OFF_FLOOR * float(magnitudes.max()))
+
+
+def phase_degrees(phasor, decimals: int | None = None):
+    """The phase of ``phasor`` (complex, scalar or array) in degrees in (−180,
+    180], rounded to ``decimals`` first if given, so that a phase printed as
+    −180.0 after rounding is 180.0; never −0.0. A float for a scalar."""
+    phase = np.degrees(np.angle(phasor))
+    if decimals is not None:
+        phase = np.round(phase, decimals)
+    phase = np.where(phase <= -180.0, phase + 360.0, phase) + 0.0
+    return float(phase) if np.ndim(phase) == 0 else phase
+
+
+def negligible_level(scale, cylinders: int, negligible: float = DEFAULT_NEGLIGIBLE):
+    """The amplitude [N or N m] at or below which a component is negligible:
+    ``negligible`` × one cylinder's share of the load ``scale``
+    (``scale / cylinders``); ``negligible`` is the scene's ``[model]
+    negligible``."""
+    return negligible * np.asarray(scale, dtype=float) / max(int(cylinders), 1)
+
+
+def classify(amplitude, scale, level) -> np.ndarray:
+    """The class code of each order component (:data:`CLASSES`): 0 (zero) at
+    or below ZERO_RTOL × the load ``scale``, else 1 (negligible) at or below
+    ``level`` (:func:`negligible_level`), else 2 (free). ``amplitude`` may be
+    complex; ``scale`` and ``level`` broadcast against it."""
+    a = np.abs(amplitude)
+    codes = np.where(a <= np.asarray(level), NEGLIGIBLE, FREE)
+    return np.where(a <= ZERO_RTOL * np.asarray(scale), ZERO, codes).astype(np.int8)
 
 
 def is_balanced(amplitude, scale, rtol: float = BALANCED_RTOL):

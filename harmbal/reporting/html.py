@@ -11,15 +11,21 @@ from an archive equals the report from the scene it came from.
 from __future__ import annotations
 
 import html
-import io
 import math
 import os
+import shlex
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from .._version import __version__
-from ..orders.spectrum import is_balanced
+from ..orders.spectrum import FREE, ZERO, is_balanced
+from .lazy_imports import defer_duck_array_imports
+
+# Before the analysis that a report follows makes its first xarray Variable: xarray would import dask.array
+# and pint (0.5 s) only to learn that no data is a dask array or a pint quantity (see lazy_imports).
+defer_duck_array_imports()
 
 #: Crank angles per revolution of the traces and loci (one every 0.5°).
 TRACE_SAMPLES = 720
@@ -37,8 +43,13 @@ th, td { border: 1px solid #d0d0d0; padding: 0.2rem 0.5rem; text-align: right; }
 th { background: #f2f2f2; } td.text, th.text { text-align: left; }
 figure { margin: 1rem 0; } figure svg { width: 100%; height: auto; display: block; }
 figcaption { font-size: 0.85rem; color: #444; }
-pre { background: #f6f6f6; padding: 0.8rem; overflow-x: auto; font-size: 0.8rem; }
-.verdict-balanced { color: #006d4f; } .verdict-free { color: #a33b00; }
+pre { background: #f6f6f6; padding: 0.8rem; overflow-x: auto; font-size: 0.8rem; white-space: pre-wrap;
+      overflow-wrap: anywhere; }
+p.engine { font-size: 1.05rem; margin: 0.4rem 0 0.8rem; }
+table.headline th { white-space: nowrap; vertical-align: bottom; }
+table.headline td { vertical-align: top; } table.headline td.free { color: #a33b00; font-weight: 600; }
+table.headline td.remedy { font-size: 0.8rem; min-width: 20rem; } td.remedy div.element { padding-left: 0.8rem; }
+.verdict-balanced { color: #006d4f; } .verdict-negligible { color: #55606e; } .verdict-free { color: #a33b00; }
 .note { font-size: 0.85rem; color: #444; }
 @media print {
   body { max-width: none; margin: 0; }
@@ -50,20 +61,12 @@ pre { background: #f6f6f6; padding: 0.8rem; overflow-x: auto; font-size: 0.8rem;
 """
 
 
+#: Class attributes of table cells: text (left-aligned) and a free component (coloured).
+_TEXT, _FREE, _ELEMENT = ' class="text"', ' class="free"', ' class="element"'
+
+
 def _e(text) -> str:
     return html.escape(str(text), quote=True)
-
-
-def _svg(fig, number: int) -> str:
-    """A figure as an inline ``<svg>`` element: deterministic, text as text,
-    ids unique on the page (one hash salt per figure)."""
-    import matplotlib
-
-    buffer = io.StringIO()
-    with matplotlib.rc_context({"svg.hashsalt": f"harmbal-{number}", "svg.fonttype": "none"}):
-        fig.savefig(buffer, format="svg", metadata={"Date": None})
-    text = buffer.getvalue()
-    return text[text.index("<svg"):]
 
 
 def _table(header: list[str], rows: list[list], text_columns: int = 1) -> str:
@@ -79,19 +82,34 @@ def _table(header: list[str], rows: list[list], text_columns: int = 1) -> str:
 
 
 class _Page:
-    """Collects sections and numbers the figures."""
+    """Collects sections and numbers the figures; the figures are made and
+    rendered at the end, by :func:`harmbal.reporting.svg.figures_svg` (two at
+    a time where the machine allows)."""
 
     def __init__(self):
         self.parts: list[str] = []
-        self.figures = 0
+        self.figures: list[tuple] = []
 
     def add(self, text: str) -> None:
         self.parts.append(text)
 
-    def figure(self, fig, caption: str, name: str) -> None:
-        self.figures += 1
-        self.add(f'<figure id="figure-{name}" data-figure="{_e(name)}">{_svg(fig, self.figures)}'
-                 f"<figcaption>Figure {self.figures}. {_e(caption)}</figcaption></figure>")
+    def figure(self, make, caption: str, name: str) -> None:
+        """A figure: ``make()`` returns it (a matplotlib Figure), ``caption``
+        and ``name`` (its ``data-figure``) go with it."""
+        number = len(self.figures) + 1
+        self.figures.append((len(self.parts), make, number, name))
+        self.add(f'<figure id="figure-{name}" data-figure="{_e(name)}">\0'
+                 f"<figcaption>Figure {number}. {_e(caption)}</figcaption></figure>")
+
+    def text(self) -> str:
+        """The sections with every figure's SVG in its place."""
+        from .svg import figures_svg
+
+        svgs = figures_svg([(make, number, name) for _, make, number, name in self.figures])
+        parts = list(self.parts)
+        for (index, _, _, _), svg in zip(self.figures, svgs):
+            parts[index] = parts[index].replace("\0", svg, 1)
+        return "\n".join(parts)
 
 
 def _free_vector_stars(tree):
@@ -110,16 +128,123 @@ def _first_speed(ds):
 
 
 def _phasor(value: complex, scale: float, rtol: float) -> tuple[str, str]:
-    if is_balanced(abs(value), scale, rtol):
-        return "0", "—"
-    return f"{abs(value):.5g}", f"{round(math.degrees(np.angle(value)), 1) + 0.0:.1f}°"
+    return _class_phasor(value, ZERO if is_balanced(abs(value), scale, rtol) else FREE)
 
 
-def _summary(page: _Page, scene, tree) -> None:
-    from .tables import verdict
+def _class_phasor(value: complex, code: int) -> tuple[str, str]:
+    """Amplitude and phase cells by class: 0 (round-off) and ~0 (negligible) without a phase."""
+    from ..orders.spectrum import phase_degrees
 
-    time, stars = tree["time"].ds, _first_speed(_free_vector_stars(tree))
-    orders = tree["orders"].ds
+    if code != FREE:
+        return ("0" if code == ZERO else "~0"), "—"
+    return f"{abs(value):.5g}", f"{phase_degrees(value, 1):.1f}°"
+
+
+class _Runs:
+    """The scene simulated again for the traces and the headline: ``after``
+    (as the scene is) and, when it has balancer elements, ``before`` (without
+    them) with its order spectrum at the first speed. The same from a scene
+    and from its archive (both rebuild the scene from its text)."""
+
+    def __init__(self, scene, tree):
+        from ..views.orders import order_spectrum
+        from ..views.time import simulate
+
+        # Smooth curves need more angles than the spectra: at TRACE_SAMPLES or more.
+        samples = max(int(tree["time"].ds.attrs["samples_per_rev"]), TRACE_SAMPLES)
+        self.after = simulate(scene, samples_per_rev=samples)
+        self.before = self.before_orders = None
+        if (scene.shafts or scene.levers) and "balancers" in scene.model.effects:
+            self.before = simulate(scene.with_effects(scene.model.effects - {"balancers"}), samples_per_rev=samples)
+            self.before_orders = _first_speed(order_spectrum(self.before))
+
+
+def _summary(page: _Page, scene, tree, runs: _Runs) -> None:
+    """The top of the page: the engine in one line, the headline table of the
+    orders that are not negligible (before and after the balancers, with
+    what would remove what remains) and one line for the others."""
+    from . import review
+
+    orders = _first_speed(tree["orders"].ds)
+    after = review.order_loads(orders)
+    before = None if runs.before_orders is None else review.judged_like(runs.before_orders, orders)
+    shown = review.headline_orders(after, before)
+    page.add(f'<section id="summary"><h2>Summary</h2><p class="engine">{_e(review.engine_line(scene))}</p>')
+    if shown:
+        page.add(_headline_table(scene, orders, after, before, shown))
+    else:
+        page.add("<p><strong>Nothing is free:</strong> every order is negligible or zero.</p>")
+    page.add(f'<p class="note">{_e(_headline_note(orders, before is not None))}</p>'
+             f"<p>{_e(_quiet_line(orders, after, before))}</p></section>")
+
+
+def _headline_table(scene, orders, after, before, shown) -> str:
+    """Rows per order shown: without and with the balancers (or as built),
+    free components coloured, and what would remove what remains."""
+    from . import review
+
+    speed = float(np.atleast_1d(orders["speed"].values)[0])
+    spacing = review.couple_spacing(scene)
+    header = "<th>order</th>" + ("<th class=\"text\">balancers</th>" if before else "")
+    header += "".join(f"<th>{_e(h)}<br>[{_e(u)}]</th>" for _, h, u in review.COMPONENTS)
+    header += '<th class="text">to remove what remains</th>'
+    now, was = {o.order: o for o in after}, {o.order: o for o in before or ()}
+    body = []
+    for k in shown:
+        fix = review.remedy_text(now[k], review.removals(now[k], speed, scene.sense, scene.reference_point[0], spacing))
+        remedy = "".join(f"<div{_ELEMENT if line.startswith('– ') else ''}>{_e(line)}</div>" for line in fix)
+        runs = [("without", was[k]), ("with", now[k])] if before else [(None, now[k])]
+        for j, (label, loads) in enumerate(runs):
+            first = f'<td rowspan="{len(runs)}">{_e(f"{k:g}")}</td>' if j == 0 else ""
+            which = f'<td class="text">{label}</td>' if label else ""
+            cells = "".join(f'<td{_FREE if loads.classes[key] == FREE else ""}>'
+                            f"{_e(review.cell(loads.values[key], loads.classes[key]))}</td>"
+                            for key, _, _ in review.COMPONENTS)
+            last = f'<td class="text remedy">{remedy}</td>' if j == len(runs) - 1 else '<td class="text"></td>'
+            body.append(f"<tr>{first}{which}{cells}{last}</tr>")
+    rpm = float(np.atleast_1d(orders["rpm"].values)[0])
+    return (f"<h3>Free forces and moments per order at {rpm:.6g} rpm</h3>"
+            f'<table class="headline"><thead><tr>{header}</tr></thead><tbody>{"".join(body)}</tbody></table>')
+
+
+def _headline_note(orders, balancers: bool) -> str:
+    """What the headline's columns mean and how the sizes are computed."""
+    several = orders.sizes.get("speed", 1) > 1 or np.atleast_1d(orders["rpm"].values).size > 1
+    return ("F: the transverse force, M: the transverse moment about the reference point, as co- and counter-rotating "
+            "phasors (peak amplitudes); roll: the moment about the crank axis. 0: zero to round-off; ~0: negligible "
+            f"(at most {float(orders['force_negligible_level']):.2g} N, {float(orders['moment_negligible_level']):.2g} "
+            f"N m, roll {float(orders['roll_negligible_level']):.2g} N m). "
+            + ("without / with: the engine without its balancer elements and as the scene has them. " if balancers
+               else "")
+            + "To remove what remains: for a force, an unbalance U = |P|/(k²ω²) turning at +k× (co) or −k× "
+            "(counter) crank speed, at θ = 0 opposite the phasor P (angles from +z in the direction of rotation), "
+            "in the plane x of the reference point; for a moment, two opposite unbalances U = |P|/(s·k²ω²) in planes "
+            "s apart around it (s: the cylinders' axial span, or 100 mm when they share one plane). Each is a first "
+            "size that cancels that component alone (docs/report.md); harmbal design places real elements. The "
+            "roll is left to the mounts: no unbalance on the crank axis changes it."
+            + (" The inertial loads go with ω², so these unbalances hold at every speed." if several else ""))
+
+
+def _quiet_line(orders, after, before) -> str:
+    """The orders not in the headline, in one line."""
+    from . import review
+
+    negligible, zero = review.quiet_orders(after, before)
+    parts = []
+    if negligible:
+        word = "Order" if len(negligible) == 1 else "Orders"
+        parts.append(f"{word} {review.order_ranges(negligible)}: negligible (every component at most "
+                     f"{float(orders['force_negligible_level']):.2g} N, {float(orders['moment_negligible_level']):.2g} "
+                     f"N m, roll {float(orders['roll_negligible_level']):.2g} N m).")
+    if zero:
+        word = "Order" if len(zero) == 1 else "Orders"
+        parts.append(f"{word} {review.order_ranges(zero)}: zero to round-off.")
+    return " ".join(parts) or "Every order is in the table."
+
+
+def _settings(page: _Page, scene, tree) -> None:
+    """What was simulated and how: the analysis settings."""
+    time, orders = tree["time"].ds, tree["orders"].ds
     rpm = ", ".join(f"{v:.6g}" for v in np.atleast_1d(time["rpm"].values))
     alias_f = float(np.max(orders["aliasing_error_force"].values))
     alias_m = float(np.max(orders["aliasing_error_moment"].values))
@@ -136,41 +261,52 @@ def _summary(page: _Page, scene, tree) -> None:
         ["moments about", f"({ref[0]:g}, {ref[1]:g}, {ref[2]:g}) mm"],
         ["harmbal version", __version__],
     ]
-    page.add('<section id="summary"><h2>Summary</h2>' + _table(["item", "value"], rows, 2))
-    verdict_rows = []
-    for k in stars["order"].values[1:]:
-        text = verdict(stars, int(k))
-        verdict_rows.append(f'<tr><td>{int(k)}</td><td class="text verdict-{"balanced" if text == "balanced" else "free"}">'
-                            f"{_e(text)}</td></tr>")
-    page.add(f'<h3>Verdict per order at {float(np.atleast_1d(stars["rpm"].values)[0]):.6g} rpm</h3>'
-             '<table><thead><tr><th>order</th><th class="text">verdict</th></tr></thead><tbody>'
-             + "".join(verdict_rows) + "</tbody></table></section>")
+    page.add('<section id="settings"><h2>Settings</h2>' + _table(["item", "value"], rows, 2)
+             + f'<p class="note">{_e(_classes_note(_first_speed(orders)))}</p></section>')
+
+
+def _classes_note(stars) -> str:
+    """What the classes mean, with the negligible levels of ``stars`` or
+    ``orders`` (one speed)."""
+    from .tables import negligible_note
+
+    if "force_negligible_level" not in stars:
+        return "balanced: zero to round-off; free: what a balancer must deal with."
+    return ("balanced: every component zero to round-off; negligible: what is left is below the negligible level; "
+            "free: what a balancer must deal with. "
+            + negligible_note({"N": float(stars["force_negligible_level"]),
+                               "N m": float(stars["moment_negligible_level"])},
+                              float(stars.attrs.get("negligible", 0.0))) + ".")
 
 
 def _spectrum(page: _Page, tree, log: bool) -> None:
-    from .plots import order_spectrum_figure
+    from .review_plots import review_spectrum_figure
+    from .tables import ORDER_VALUES, cell_classes, negligible_note
 
     orders = _first_speed(tree["orders"].ds)
-    rtol = float(orders.attrs.get("balanced_rtol", 1e-10))
     half = tree["time"].ds.attrs.get("revolutions", 1) > 1
+    values = {name: orders[name].values for name in ORDER_VALUES if name in orders}
+    classes = cell_classes(values, orders.attrs)
+    k = orders["order"].values
+    free = {name: (np.asarray(classes[name]) == FREE).any(axis=-1) & (k > 0) for name in ("force", "moment")}
     page.add('<section id="spectrum"><h2>Order spectrum</h2>')
-    page.figure(order_spectrum_figure(tree["orders"].ds, log=log),
-                f"Free force and moment per order and axis, and their co- and counter-rotating parts"
-                f"{' (log scale)' if log else ''}.", "spectrum")
+    if (free["force"] | free["moment"]).any():
+        top = float(k[free["force"] | free["moment"]].max())
+        beyond = f" Orders above {top:g} are negligible and not drawn." if top < k.max() else ""
+        drawn = [name for name in ("force", "moment") if free[name].any()]
+        page.figure(partial(review_spectrum_figure, tree["orders"].ds, log=log, max_order=top, quantities=drawn),
+                    f"Free {' and '.join(drawn)} per order: the co- and counter-rotating phasors"
+                    f"{' and the roll' if 'moment' in drawn else ''}; the tables below give each engine axis"
+                    f"{' (log scale)' if log else ''}.{beyond}{_undrawn(free)}", "spectrum")
     for name, units in (("force", "N"), ("moment", "N m")):
-        scale = float(orders[f"{name}_scale"])
-        rows = []
-        for i, k in enumerate(orders["order"].values):
-            if i == 0:
-                continue
-            row = [f"{k:g}"]
-            for value in list(orders[name].values[i]) + list(orders[f"{name}_rotating"].values[i]):
-                row += _phasor(complex(value), scale, rtol)
-            rows.append(row)
-        header = ["order"] + [f"{c} {part}" for c in ("x", "y", "z", "co", "counter") for part in ("amplitude", "phase")]
+        cells = np.concatenate([values[name], values[f"{name}_rotating"]], axis=-1)
+        rows = [[f"{k[i]:g}"] + [part for value, code in zip(cells[i], classes[name][i])
+                                 for part in _class_phasor(complex(value), int(code))] for i in np.flatnonzero(k > 0)]
+        header = ["order"] + [f"{c} {part}" for c in ("x", "y", "z", "co", "counter")
+                              for part in ("amplitude", "phase")]
         page.add(f"<h3>Free {name} [{units}]</h3>" + _table(header, rows, 0))
-    page.add('<p class="note">Amplitudes are peak values of Re(C·e^{ikθ}); phases at θ = 0. Components within '
-             f"{rtol:g} of the single-body load scale are balanced and shown as 0."
+    page.add('<p class="note">Amplitudes are peak values of Re(C·e^{ikθ}); phases at θ = 0. '
+             + _e(negligible_note(classes["levels"], float(orders.attrs.get("negligible", 0.0)))) + "."
              + (" Orders are per crank revolution: over the four-stroke cycle of two revolutions they run in halves;"
                 " the inertial loads have whole orders only and the gas adds only the roll moment M_x (at whole and"
                 " half orders)." if half else "") + "</p>")
@@ -181,42 +317,48 @@ def _spectrum(page: _Page, tree, log: bool) -> None:
         page.add(f'<p class="note">The tables are at {float(rpm[0]):.6g} rpm, the first of {rpm.size} speeds; every '
                  "speed is in the maps below and in the Datasets.</p>")
         for name in ("force", "moment"):
-            page.figure(campbell_figure(tree["orders"].ds, name=name),
+            page.figure(partial(campbell_figure, tree["orders"].ds, name=name),
                         f"Campbell map: the peak of each order's {name} vector over a revolution against crank speed, "
                         f"{float(rpm.min()):.6g} to {float(rpm.max()):.6g} rpm.", f"campbell-{name}")
     page.add("</section>")
 
 
-def _stars(page: _Page, tree) -> None:
-    from .plots import stars_figure
+def _undrawn(free: dict) -> str:
+    """The caption's note on a quantity with nothing free (not drawn)."""
+    quiet = [name for name in ("force", "moment") if not free[name].any()]
+    return f" The {quiet[0]} is zero or negligible at every order and not drawn." if quiet else ""
 
+
+def _stars(page: _Page, tree) -> None:
+    from .review_plots import free_phasor_orders, review_stars_figure, review_stars_note
+
+    stars = _free_vector_stars(tree)
     page.add('<section id="stars"><h2>Crank stars and phasor diagrams</h2>')
-    page.figure(stars_figure(_free_vector_stars(tree)), "Crank stars and the free force and moment phasors per order "
-                "(each cylinder's arrow head to tail, co- and counter-rotating).", "stars")
+    if free_phasor_orders(_first_speed(stars)):
+        note = review_stars_note(stars)
+        page.figure(partial(review_stars_figure, stars), "Crank stars and the free force and moment phasors of the orders "
+                    f"with a free force or moment (each cylinder's arrow head to tail, co- and counter-rotating). {note}", "stars")
+    else:
+        page.add("<p>No order has a free force or moment: nothing to draw.</p>")
     page.add("</section>")
 
 
-def _traces(page: _Page, scene, tree) -> None:
+def _traces(page: _Page, runs: _Runs) -> None:
     from .plots import locus_figure, time_traces_figure
-    from ..views.time import simulate
 
-    # Smooth curves need more angles than the spectra: the traces are simulated again from the scene
-    # at TRACE_SAMPLES or more (the same from a scene and from its archive).
-    samples = max(int(tree["time"].ds.attrs["samples_per_rev"]), TRACE_SAMPLES)
-    after = simulate(scene, samples_per_rev=samples)
-    before = None
-    if (scene.shafts or scene.levers) and "balancers" in scene.model.effects:
-        before = simulate(scene.with_effects(scene.model.effects - {"balancers"}), samples_per_rev=samples)
+    after, before = runs.after, runs.before
     revolutions = int(after.attrs.get("revolutions", 1))
     heading = "Over one revolution" if revolutions == 1 else f"Over the working cycle ({revolutions} revolutions)"
     page.add(f'<section id="time"><h2>{heading}</h2>')
+    period = "the revolution" if revolutions == 1 else "the working cycle"
     if before is None:
-        page.figure(time_traces_figure(after), "Shaking force and moment per axis over the crank angle.", "traces")
-        page.figure(locus_figure(after), "Locus of the transverse force and moment over the revolution.", "locus")
+        page.figure(partial(time_traces_figure, after), "Shaking force and moment per axis over the crank angle.",
+                    "traces")
+        page.figure(partial(locus_figure, after), f"Locus of the transverse force and moment over {period}.", "locus")
     else:
-        page.figure(time_traces_figure(before, after=after), "Shaking force and moment per axis over the crank "
+        page.figure(partial(time_traces_figure, before, after=after), "Shaking force and moment per axis over the crank "
                     "angle, without the balancer elements (solid) and with them (dashed).", "traces")
-        page.figure(locus_figure(before, after=after), "Locus of the transverse force and moment, without and "
+        page.figure(partial(locus_figure, before, after=after), "Locus of the transverse force and moment, without and "
                     "with the balancer elements.", "locus")
     page.add("</section>")
 
@@ -243,7 +385,7 @@ def _balancers(page: _Page, scene, tree) -> None:
     if rows:
         page.add(_table(["element", "type", "speed ratio", "unbalance", "angle at θ = 0", "axial position",
                          "axis (y, z)"], rows, 2))
-        page.figure(phasing_figure(scene), "Phasing of the balancer elements at θ = 0: each unbalance as n²·U in "
+        page.figure(partial(phasing_figure, scene), "Phasing of the balancer elements at θ = 0: each unbalance as n²·U in "
                     "its direction (+z up, the direction of rotation to the right).", "phasing")
     if "verify" in tree.children:
         check = _first_speed(tree["verify"].ds)
@@ -253,11 +395,16 @@ def _balancers(page: _Page, scene, tree) -> None:
                  for k, name, row, units in targeted_rows(check)]
         page.add(f"<h3>Verification by the exact model: {'passed' if check.attrs['passed'] == 'yes' else 'FAILED'}"
                  "</h3>" + _table(["target", "before", "predicted", "exact residual", "tolerance", "result"], vrows, 1))
+        worsened = str(check.attrs.get("worsened", "")).strip()
+        if worsened:
+            page.add('<p class="verdict-free"><strong>Warning:</strong> '
+                     + "; ".join(_e(line) for line in worsened.splitlines()) + ".</p>")
     page.add("</section>")
 
 
-def _lever(page: _Page, tree) -> None:
+def _lever(page: _Page, scene, tree, runs: _Runs) -> None:
     from .plots import lever_figure
+    from .review_plots import mechanism_figure
 
     if "joints" not in tree.children:
         return
@@ -273,9 +420,74 @@ def _lever(page: _Page, tree) -> None:
                   f"{math.degrees(float(joints['min_transmission_theta'].sel(lever=label))):.5g}°",
                   f"{float(joints['discriminant_margin'].sel(lever=label)):.4g}"] for label in joints["lever"].values]
         page.add(_table(["lever", "minimum transmission angle", "at θ", "closure margin min sin²γ"], drows, 1))
-    page.figure(lever_figure(joints), "Joint force magnitudes and the transmission angle over the crank angle.",
+    if scene.levers:
+        page.figure(partial(mechanism_figure, scene), "The mechanism at four crank angles: cranks (dark), con-rods (blue) and "
+                    "pistons (squares) on their cylinder axes (dashed); each lever balancer's second crank pin (grey), "
+                    "the balance weight B–C (vermillion, the dot its centre of gravity), the rocker (green) and its "
+                    "fixed pivot (triangle).", "mechanism")
+    page.figure(partial(lever_figure, joints), "Joint force magnitudes and the transmission angle over the crank angle.",
                 "lever")
+    _lever_weight(page, scene, runs)
     page.add("</section>")
+
+
+def _lever_weight(page: _Page, scene, runs: _Runs) -> None:
+    """The frame force without the lever balancers, with the scene's balance
+    weight and with the optimal one (:func:`harmbal.balance.lever.design_lever`
+    on the scene's ``[design.lever]`` request), when the scene asks for one."""
+    from ..scene.requests import LeverDesignRequest
+
+    if not isinstance(scene.design, LeverDesignRequest):
+        page.add('<p class="note">The scene has no [design.lever] table, so the report does not look for a better '
+                 "balance weight (docs/lever.md).</p>")
+        return
+    from ..balance.lever import design_lever
+    from ..balance.solvers import DesignError
+
+    try:
+        result = design_lever(scene)
+    except DesignError as exc:
+        page.add(f'<p class="note">No balance weight designed: {_e(exc)}</p>')
+        return
+    page.add(f"<h3>Frame force with the scene's and the optimal balance weight of {_e(result.lever)!s}</h3>"
+             + _lever_weight_table(result, runs))
+
+
+def _criterion_without(before, request) -> float:
+    """The lever design's criterion of the loads without the balancer
+    elements (``before``, simulated at the first speed's samples)."""
+    from ..balance.lever import criterion
+
+    ds = _first_speed(before)
+    values = np.stack([ds[name.split("_")[0]].sel(axis=name.split("_")[1]).values for name in request.signals])
+    return criterion(values, request.objective, request.orders, request.weights)
+
+
+def _lever_weight_table(result, runs: _Runs) -> str:
+    """The weight, the criterion per signal and the frame force per order
+    with the scene's weight and the optimal one, and without the lever."""
+    b, request = result.breakdown, result.request
+    rpm = result.speed * 30 / math.pi
+    found = "optimal" if result.method != "compass" else "end point"
+    unit = str(b["signal_units"].values[0]) + ("²" if request.objective == "orders" else "")
+    rows = [[label, f"{m:.4g} kg", f"({x * 1e3:.4g}, {y * 1e3:.4g}) mm", f"{value:.5g} {unit}"]
+            for label, (m, x, y), value in (("the scene's weight", result.start, result.criterion_start),
+                                            (f"{found} weight", result.weight, result.criterion))]
+    if runs.before is not None:
+        without = _criterion_without(runs.before, request)
+        rows.insert(0, ["without the lever balancers", "—", "—", f"{without:.5g} {unit}"])
+    text = _table(["", "mass", "CG (x along B→C, y ahead)", f"{request.objective.replace('_', ' ')} of "
+                   f"{' + '.join(request.signals)}"], rows, 1)
+    signals = [[str(name).replace("_", " "), f"{float(b['criterion'].values[0, j]):.5g} {unit}",
+                f"{float(b['criterion'].values[1, j]):.5g} {unit}"] for j, name in enumerate(b["signal"].values)]
+    text += _table(["signal", "the scene's weight", f"{found} weight"], signals, 1)
+    orders = [[f"{k:g}"] + [f"{float(v):.5g}" for v in (*b["force"].values[0, i], *b["force"].values[1, i])]
+              for i, k in enumerate(b["order"].values) if k > 0]
+    text += _table(["order", "scene's: co [N]", "counter [N]", f"{found}: co [N]", "counter [N]"], orders, 1)
+    check = "verified" if result.verified else "NOT verified"
+    return text + (f'<p class="note">At {rpm:.6g} rpm ({result.method}); the exact model of the scene with the '
+                   f"{found} weight gives {result.exact_criterion:.6g} {unit} ({check}). <code>harmbal design</code> "
+                   "writes that scene.</p>")
 
 
 def _distinct_cylinders(scene) -> list[str]:
@@ -325,7 +537,7 @@ def _torque(page: _Page, scene, tree) -> None:
         which = f" of cylinder {drawn[0]} (every cylinder has the same trace, shifted to its firing TDC)"
     else:
         which = f" of cylinders {', '.join(drawn)} (the others repeat one of these, shifted to their firing TDC)"
-    page.figure(pressure_figure(torque, cylinders=drawn), f"Cylinder pressure (absolute){which} over the "
+    page.figure(partial(pressure_figure, torque, cylinders=drawn), f"Cylinder pressure (absolute){which} over the "
                 "crank angle θ of throw 1, and the p–V diagram against the displaced volume above TDC.", "pressure")
     rows = [[str(label), f"{math.degrees(float(fire)) % span:.1f}°", f"{float(volume) * 1e6:.5g} cm³",
              f"{float(imep) / 1e5:.4g} bar"]
@@ -340,12 +552,12 @@ def _torque(page: _Page, scene, tree) -> None:
     page.add(_table(["quantity", "value"], rows, 1) + note)
 
     page.add("<h3>Torque over the working cycle</h3>")
-    page.figure(torque_figure(torque), f"Torque on the crankshaft in the direction of rotation over the working "
+    page.figure(partial(torque_figure, torque), f"Torque on the crankshaft in the direction of rotation over the working "
                 f"cycle at {rpm:.6g} rpm (constant speed): the gas torque of all cylinders, the mass torque the "
                 "moving parts take from the crank, the torque the crank delivers (gas − mass) and its mean.",
                 "torque")
     page.add(f"<h3>Torque orders at {rpm:.6g} rpm</h3>")
-    page.figure(torque_spectrum_figure(torque), f"Orders of the delivered and of the gas torque at {rpm:.6g} rpm "
+    page.figure(partial(torque_spectrum_figure, torque), f"Orders of the delivered and of the gas torque at {rpm:.6g} rpm "
                 "(peak amplitudes); major orders shaded.", "torque-spectrum")
     scale = torque_scale(torque)
     gas = torque["gas_torque_order"].sum("cylinder").values
@@ -364,7 +576,7 @@ def _torque(page: _Page, scene, tree) -> None:
              "and are shown as 0.</p>")
     if "omega" in torque:
         page.add("<h3>Speed fluctuation</h3>")
-        page.figure(speed_fluctuation_figure(torque), f"Crank speed over the working cycle at a mean of "
+        page.figure(partial(speed_fluctuation_figure, torque), f"Crank speed over the working cycle at a mean of "
                     f"{rpm:.6g} rpm, driven by the gas torque against a constant load with the rotating inertia "
                     "of the flywheel and the moving parts.", "speed-fluctuation")
         rows = [["constant inertia J₀ (flywheel, crankshaft …)", f"{float(torque['flywheel_inertia']):.5g} kg m²"]]
@@ -414,7 +626,7 @@ def _loads(page: _Page, scene, tree) -> None:
     drawn = _distinct_cylinders(scene)
     which = "" if len(drawn) == len(scene.cylinders) else (
         f" of cylinder{'s' if len(drawn) > 1 else ''} {', '.join(drawn)} (the others' diagrams are the same)")
-    page.figure(crank_pin_figure(loads, cylinders=drawn), f"Polar diagrams{which} at {rpm:.6g} rpm: the con-rod's "
+    page.figure(partial(crank_pin_figure, loads, cylinders=drawn), f"Polar diagrams{which} at {rpm:.6g} rpm: the con-rod's "
                 "force on the crank pin in the crank frame (radial outwards up, tangential in the direction of "
                 "rotation to the right; the dot is the peak), and the crank pin's force on the big-end bearing in "
                 "the rod frame.", "crank-pin")
@@ -430,7 +642,7 @@ def _loads(page: _Page, scene, tree) -> None:
                  + '<p class="note">Statically determinate split: each load on the crankshaft is carried by the two '
                  "main bearings around it by the lever rule (overhung loads by the last two). A continuous-beam "
                  "solution shares the loads differently (docs/loads.md).</p>")
-        page.figure(main_bearing_figure(loads), f"Main-bearing loads at {rpm:.6g} rpm: the crankshaft's force on "
+        page.figure(partial(main_bearing_figure, loads), f"Main-bearing loads at {rpm:.6g} rpm: the crankshaft's force on "
                     "each bearing over the angle in the block frame (+z up, t to the right); the dot is the peak.",
                     "main-bearings")
         orders = [k for k in at["order"].values if 0 < k <= MAIN_BEARING_ORDERS]
@@ -487,11 +699,58 @@ def _clearance(page: _Page, tree) -> None:
              "are overlaps. Outlines are 2-D and convex, in each cylinder's plane (docs/shapes.md).</p></section>")
 
 
-def _provenance(page: _Page, scene, source: str) -> None:
-    page.add('<section id="provenance"><h2>Provenance</h2>'
-             f"<p>Made by harmbal {_e(__version__)} from <code>{_e(source)}</code>. To reproduce:</p>"
-             f"<pre>pip install harmbal=={_e(__version__)}\nharmbal report {_e(source)} -o report.html</pre>"
+def _provenance(page: _Page, scene, source: str, made_by: dict) -> None:
+    """How to make the page again: the harmbal version and source revision
+    that computed the numbers (``made_by``, the analysis tree's root
+    attributes; this harmbal's if absent), the commands, and the scene text."""
+    from .._version import UNKNOWN_REVISION, source_revision
+
+    here = (__version__, source_revision())
+    version = str(made_by.get("harmbal_version", here[0]))
+    revision = str(made_by.get("source_revision", UNKNOWN_REVISION if "harmbal_version" in made_by else here[1]))
+    text = _reproduce(version, revision, source)
+    if (version, revision) != here:
+        text += (f'<p class="note">The numbers come from an analysis by harmbal {_e(version)} (revision '
+                 f"{_e(revision)}); this page was laid out by harmbal {_e(here[0])} (revision {_e(here[1])}).</p>")
+    page.add(f'<section id="provenance"><h2>Provenance</h2>{text}'
              f"<h3>Scene</h3><pre>{_e(scene.source_text)}</pre></section>")
+
+
+def _reproduce(version: str, revision: str, source: str) -> str:
+    """The paragraphs that say which harmbal made the numbers and how to
+    install it and run the report again (harmbal is on no package index)."""
+    from .._version import UNKNOWN_REVISION
+
+    command = f"harmbal report {shlex.quote(source)} -o report.html"
+    if revision != UNKNOWN_REVISION:
+        made = (f"Made by harmbal {_e(version)} at source revision <code>{_e(revision)}</code> (the git commit of "
+                "the harmbal sources it ran from; uncommitted changes are not recorded)")
+        commands = f"git checkout {revision}\npip install .\n{command}"
+        how = "install that revision from a clone of the harmbal sources, then run the command"
+    else:
+        made = (f"Made by harmbal {_e(version)}, source revision unknown (it did not run from a git checkout of "
+                "the harmbal sources)")
+        commands = command
+        how = f"install harmbal {_e(version)} from its sources (<code>pip install .</code> in a copy of them), then run"
+    return (f"<p>{made}, from <code>{_e(source)}</code>. harmbal is not published on a package index: to reproduce, "
+            f"{how} from the folder the scene's path is relative to:</p><pre>{_e(commands)}</pre>"
+            "<p>The scene text below is the whole input: save it under that name if the file has changed.</p>")
+
+
+def _sections(page: _Page, scene, tree, log: bool, source: str | None) -> None:
+    """Every section of the page, in order (figures rendered later, by ``page.text``)."""
+    runs = _Runs(scene, tree)
+    _summary(page, scene, tree, runs)
+    _settings(page, scene, tree)
+    _spectrum(page, tree, log)
+    _stars(page, tree)
+    _traces(page, runs)
+    _balancers(page, scene, tree)
+    _lever(page, scene, tree, runs)
+    _torque(page, scene, tree)
+    _loads(page, scene, tree)
+    _clearance(page, tree)
+    _provenance(page, scene, source or scene.source, dict(tree.attrs))
 
 
 def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, source: str | None = None,
@@ -523,21 +782,13 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     attrs = tree["scene"].ds.attrs
     scene = scene_from_text(attrs["scene_toml"], attrs.get("source", "<scene>"))
     page = _Page()
-    _summary(page, scene, tree)
-    _spectrum(page, tree, log)
-    _stars(page, tree)
-    _traces(page, scene, tree)
-    _balancers(page, scene, tree)
-    _lever(page, tree)
-    _torque(page, scene, tree)
-    _loads(page, scene, tree)
-    _clearance(page, tree)
-    _provenance(page, scene, source or scene.source)
+    _sections(page, scene, tree, log, source)
+    body = page.text()
     title = f"harmbal report: {scene.name}"
     text = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{_e(title)}</title>"
             f"<style>{_STYLE}{css}</style></head><body><h1>{_e(title)}</h1>"
-            f"<p class=\"note\">{_e(scene.description)}</p>" + "\n".join(page.parts) + "</body></html>\n")
+            f"<p class=\"note\">{_e(scene.description)}</p>" + body + "</body></html>\n")
     if path is not None:
         from ..io.files import atomic_path
 

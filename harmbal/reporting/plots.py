@@ -85,6 +85,9 @@ SERIES_STYLES = ("-", "--", ":", "-.")
 #: Step of the ticks of crank-angle axes [deg], over a revolution or a working cycle.
 ANGLE_TICK_STEP = 90
 
+#: At most about this many intervals between the ticks of a linear value axis (fewer texts to lay out).
+TICKS = 4
+
 #: Order axes with more orders than this label the whole orders only (half orders get minor ticks).
 MAX_ORDER_LABELS = 16
 
@@ -105,6 +108,46 @@ _PREFIXES = {-12: "p", -9: "n", -6: "µ", -3: "m", 0: "", 3: "k", 6: "M", 9: "G"
 
 def _colour(name: str) -> str:
     return OKABE_ITO[name]
+
+
+#: Width of an average character of the figures' font (DejaVu Sans) in ems, with a margin.
+_EM_PER_CHARACTER = 0.6
+
+
+def fitted(text: str, width: float, fontsize: float) -> str:
+    """``text`` wrapped at spaces into lines that fit ``width`` inches at
+    ``fontsize`` points, its own line breaks kept.
+
+    Parameters
+    ----------
+    text : str
+    width : float
+        Room for the text [in] (a figure's or an axes' width).
+    fontsize : float
+        Font size [pt].
+
+    Returns
+    -------
+    str
+    """
+    import re
+    import textwrap
+
+    columns = max(int(width * 72 / (_EM_PER_CHARACTER * fontsize)), 12)
+    kept = re.sub(r"(?<=\d) ", "\0", text)  # a number stays on the line of its unit ("3000 rpm")
+    lines = (line for paragraph in kept.split("\n")
+             for line in (textwrap.wrap(paragraph, columns, break_on_hyphens=False) or [""]))
+    return "\n".join(lines).replace("\0", " ")
+
+
+def _suptitle(fig: Figure, text: str, fontsize: float, **style) -> None:
+    """The figure's title, wrapped to its width (:func:`fitted`)."""
+    fig.suptitle(fitted(text, 0.96 * fig.get_figwidth(), fontsize), fontsize=fontsize, **style)
+
+
+def _supxlabel(fig: Figure, text: str, fontsize: float, **style) -> None:
+    """The figure's footnote, wrapped to its width (:func:`fitted`)."""
+    fig.supxlabel(fitted(text, 0.96 * fig.get_figwidth(), fontsize), fontsize=fontsize, **style)
 
 
 def _page(values) -> tuple[np.ndarray, np.ndarray]:
@@ -203,6 +246,67 @@ def _frame(ax: Axes, centre: tuple[float, float], half: float) -> None:
     ax.autoscale_view()
 
 
+def bank_colours(stars: xr.Dataset) -> list[str]:
+    """The colour of each bank's arms: by bank for a multi-bank engine, else black."""
+    banks = np.asarray(stars["bank"].values, dtype=float)
+    if len(banks) == 1:
+        return [_colour("black")]
+    return [_colour(BANK_COLOURS[j % len(BANK_COLOURS)]) for j in range(len(banks))]
+
+
+def star_arms_drawn(ax: Axes, stars: xr.Dataset, order: int, centre: tuple[float, float] = (0.0, 0.0),
+                    labelled: bool = True) -> tuple[list[str], bool]:
+    """Draw the unit circle, θ = 0 mark and arms of one crank star around
+    ``centre`` (page coordinates), as :func:`crank_star` does.
+
+    Returns
+    -------
+    (list of str, bool)
+        The bank colours and whether the engine has several banks.
+    """
+    from matplotlib.lines import Line2D
+
+    k = int(order)
+    cx, cy = centre
+    angles = np.asarray(stars["star_angle"].sel(order=k).values, dtype=float)
+    labels = [str(c) for c in stars["cylinder"].values]
+    banks = np.asarray(stars["bank"].values, dtype=float)
+    cylinder_bank = np.asarray(stars["cylinder_bank"].values, dtype=float)
+    bank_of = np.array([int(np.argmin(np.abs(np.remainder(b - banks + np.pi, 2 * np.pi) - np.pi)))
+                        for b in cylinder_bank])
+    colours = bank_colours(stars)
+    circle = np.linspace(0, 2 * np.pi, 181)
+    ax.plot(cx + np.sin(circle), cy + np.cos(circle), color="0.75", lw=0.8, zorder=1)
+    ax.plot([cx, cx], [cy + 1.0, cy + 1.08], color="0.45", lw=0.8, zorder=1)
+    for angle, members in star_arms(angles):
+        direction = np.array([np.sin(angle), np.cos(angle)])
+        normal = np.array([direction[1], -direction[0]])
+        groups = [[i for i in members if bank_of[i] == j] for j in range(len(banks))]
+        groups = [(j, g) for j, g in enumerate(groups) if g]
+        for n, (j, group) in enumerate(groups):
+            shift = (n - (len(groups) - 1) / 2) * 0.05 * normal
+            text = ",".join(labels[i] for i in group)
+            end = direction + shift
+            ax.add_line(Line2D([cx + shift[0], cx + end[0]], [cy + shift[1], cy + end[1]], color=colours[j], lw=2.2,
+                               solid_capstyle="round", marker="o", markevery=[1], markersize=4.5,
+                               gid=f"order{k}-star-arm-{text}", zorder=3))
+            if not labelled:
+                continue
+            # Labels of coincident arms stack vertically on the page, away
+            # from the circle at the top and bottom, centred at the sides.
+            if direction[1] > 0.5:
+                dy = 0.15 * n
+            elif direction[1] < -0.5:
+                dy = -0.15 * n
+            else:
+                dy = 0.15 * ((len(groups) - 1) / 2 - n)
+            ha = "left" if direction[0] > 0.3 else ("right" if direction[0] < -0.3 else "center")
+            ax.text(cx + 1.14 * direction[0], cy + 1.14 * direction[1] + dy, text, color=colours[j], ha=ha,
+                    va="center", fontsize=8, fontweight="bold", zorder=4)
+    ax.plot([cx], [cy], "o", color="0.2", markersize=3, zorder=4)
+    return colours, len(banks) > 1
+
+
 def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
     """Draw the crank star of one order.
 
@@ -238,20 +342,7 @@ def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
 
     k = _check_order(stars, order)
     ax = _new_axes(ax)
-    angles = np.asarray(stars["star_angle"].sel(order=k).values, dtype=float)
-    labels = [str(c) for c in stars["cylinder"].values]
-    banks = np.asarray(stars["bank"].values, dtype=float)
-    cylinder_bank = np.asarray(stars["cylinder_bank"].values, dtype=float)
-    bank_of = np.array([int(np.argmin(np.abs(np.remainder(b - banks + np.pi, 2 * np.pi) - np.pi)))
-                        for b in cylinder_bank])
-    multibank = len(banks) > 1
-    colours = [_colour(BANK_COLOURS[j % len(BANK_COLOURS)]) if multibank else _colour("black")
-               for j in range(len(banks))]
-
-    # Reference circle, θ = 0 mark and the direction of rotation.
-    circle = np.linspace(0, 2 * np.pi, 181)
-    ax.plot(np.sin(circle), np.cos(circle), color="0.75", lw=0.8, zorder=1)
-    ax.plot([0, 0], [1.0, 1.08], color="0.45", lw=0.8, zorder=1)
+    colours, multibank = star_arms_drawn(ax, stars, k)
     ax.text(0.02, 0.98, "arms at k·φ from +z", transform=ax.transAxes, ha="left", va="top", fontsize=7,
             color="0.35")
     a0, a1 = np.radians(110), np.radians(150)
@@ -260,31 +351,7 @@ def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
                                  color="0.45", lw=0.8, zorder=1))
     ax.text(1.5 * np.sin(np.radians(130)), 1.5 * np.cos(np.radians(130)), "rotation", rotation=-40,
             ha="left", va="top", fontsize=7, color="0.35")
-
-    for angle, members in star_arms(angles):
-        direction = np.array([np.sin(angle), np.cos(angle)])
-        normal = np.array([direction[1], -direction[0]])
-        groups = [[i for i in members if bank_of[i] == j] for j in range(len(banks))]
-        groups = [(j, g) for j, g in enumerate(groups) if g]
-        for n, (j, group) in enumerate(groups):
-            shift = (n - (len(groups) - 1) / 2) * 0.05 * normal
-            text = ",".join(labels[i] for i in group)
-            end = direction + shift
-            ax.add_line(Line2D([shift[0], end[0]], [shift[1], end[1]], color=colours[j], lw=2.2,
-                               solid_capstyle="round", marker="o", markevery=[1], markersize=4.5,
-                               gid=f"order{k}-star-arm-{text}", zorder=3))
-            # Labels of coincident arms stack vertically on the page, away
-            # from the circle at the top and bottom, centred at the sides.
-            if direction[1] > 0.5:
-                dy = 0.15 * n
-            elif direction[1] < -0.5:
-                dy = -0.15 * n
-            else:
-                dy = 0.15 * ((len(groups) - 1) / 2 - n)
-            ha = "left" if direction[0] > 0.3 else ("right" if direction[0] < -0.3 else "center")
-            ax.text(1.14 * direction[0], 1.14 * direction[1] + dy, text, color=colours[j], ha=ha,
-                    va="center", fontsize=8, fontweight="bold", zorder=4)
-    ax.plot([0], [0], "o", color="0.2", markersize=3, zorder=4)
+    banks = np.asarray(stars["bank"].values, dtype=float)
 
     if multibank:
         regular = np.asarray(stars["bank_star_regular"].sel(order=k).values, dtype=bool)
@@ -443,6 +510,7 @@ def phasor_diagram(stars: xr.Dataset, order: int, quantity: str = "force", ax: A
     scaled = FuncFormatter(lambda value, _: f"{value / factor:.4g}")
     ax.xaxis.set_major_formatter(scaled)
     ax.yaxis.set_major_formatter(scaled)
+    ax.locator_params(nbins=TICKS)
     ax.tick_params(labelsize=7)
     prefixed = f"{_PREFIXES[exponent]}{unit}"
     ax.set_xlabel(f"{symbol} t = {_rotation_label(sel)} [{prefixed}]", fontsize=8)
@@ -534,8 +602,8 @@ def stars_figure(stars: xr.Dataset, orders: Sequence[int] | None = None, speed: 
         phasor_diagram(sel, k, "moment", row[2])
     engine = stars.attrs.get("engine", "")
     view = "front" if _rotation_label(stars) == "+y" else "rear"
-    fig.suptitle(f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", fontsize=12)
-    fig.supxlabel(f"+z up, angles clockwise in the direction of rotation, t = {_rotation_label(stars)} to the "
+    _suptitle(fig, f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", fontsize=12)
+    _supxlabel(fig, f"+z up, angles clockwise in the direction of rotation, t = {_rotation_label(stars)} to the "
                   f"right (the engine seen from the {view}; {stars.attrs.get('rotation', 'clockwise')} "
                   "rotation); moments about the reference point; cs = crankshaft unbalances\n"
                   f"firing order {stars.attrs.get('firing_order', '?')}", fontsize=7, color="0.3")
@@ -642,48 +710,72 @@ def _series_style(index: int) -> dict:
 
 
 def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], labels: dict[str, str],
-          scale: float, rtol: float, log: bool, gid: str) -> None:
+          scale: float, rtol: float, log: bool, gid: str, level=0.0, collected: bool = False) -> None:
     """Grouped bars of |phasor| per order, one bar per entry of ``dim``.
 
-    Components balanced at ``rtol`` × ``scale`` are drawn as bars of height 0,
-    or not at all on a log scale. The orders may be whole or half orders (a
+    Components balanced at ``rtol`` × ``scale``, or at most the negligible
+    ``level`` (a number, or one per entry of ``dim``), are drawn as bars of
+    height 0, or not at all on a log scale. The orders may be whole or half orders (a
     four-stroke cycle with gas). Each bar has gid ``<gid>-<entry>-order<k>``,
-    k printed as ``2`` or ``1.5``.
+    k printed as ``2`` or ``1.5``; with ``collected`` (linear scale only) the
+    bars of each entry are instead one ``PolyCollection`` with gid
+    ``<gid>-<entry>``, a rectangle per order in order (a tenth of the cost
+    of one artist per bar).
     """
     from matplotlib.patches import Patch
 
     order = np.asarray(phasors["order"].values, dtype=float)
     amplitude = np.abs(phasors.transpose("order", dim).values)
-    heights = np.where(is_balanced(amplitude, scale, rtol), 0.0, amplitude)
+    heights = np.where(is_balanced(amplitude, scale, rtol) | (amplitude <= np.asarray(level)), 0.0, amplitude)
     entries = [str(e) for e in phasors[dim].values]
     width = 0.8 * _order_step(order) / len(entries)
     for j, entry in enumerate(entries):
+        centre = order + (j - (len(entries) - 1) / 2) * width
+        if collected and not log:
+            _bar_collection(ax, centre, heights[:, j], width, _colour(colours[entry]), f"{gid}-{entry}")
+            continue
         keep = heights[:, j] > 0 if log else np.ones(len(order), dtype=bool)
-        bars = ax.bar(order[keep] + (j - (len(entries) - 1) / 2) * width, heights[keep, j], width,
-                      color=_colour(colours[entry]), log=log)
+        bars = ax.bar(centre[keep], heights[keep, j], width, color=_colour(colours[entry]), log=log)
         for bar, k in zip(bars, order[keep]):
             bar.set_gid(f"{gid}-{entry}-order{_order_label(k)}")
     if not heights.any():
-        _note(ax, "all components balanced")
+        _note(ax, "all components balanced" if not (amplitude > rtol * scale).any() else "all components negligible")
     elif log:  # at least three decades, so that nearly equal bars do not fill a sliver of a decade
         top = heights.max()
         ax.set_ylim(min(heights[heights > 0].min(), 1e-3 * top) / 2, 2 * top)
     _order_axis(ax, order)
     ax.tick_params(labelsize=7)
+    if not log:
+        ax.locator_params(axis="y", nbins=TICKS)
     ax.legend(handles=[Patch(color=_colour(colours[e]), label=labels[e]) for e in entries], fontsize=7,
               frameon=False)
 
 
+def _bar_collection(ax: Axes, centre: np.ndarray, height: np.ndarray, width: float, colour: str, gid: str) -> None:
+    """Bars from 0 to ``height`` at ``centre`` as one PolyCollection (autoscaled like ``ax.bar``'s)."""
+    from matplotlib.collections import PolyCollection
+
+    left, right = centre - width / 2, centre + width / 2
+    zero = np.zeros_like(height)
+    verts = np.stack([np.stack([left, zero], -1), np.stack([left, height], -1), np.stack([right, height], -1),
+                      np.stack([right, zero], -1)], axis=1)
+    bars = PolyCollection(verts, facecolors=colour, edgecolors="none", gid=gid)
+    bars.sticky_edges.y.append(0)
+    ax.add_collection(bars, autolim=True)
+    ax.autoscale_view()
+
+
 def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: int | None = None,
-                          speed: int = 0) -> Figure:
+                          speed: int = 0, quantities: Sequence[str] = ("force", "moment")) -> Figure:
     """Bar charts of the order spectrum of the free force and moment.
 
     Top row the force, bottom row the moment about the reference point;
     left the peak amplitude |C_k| of each engine axis (x, y, z) per order,
     right the magnitudes of the co- and counter-rotating phasors of the
-    transverse vector per order. Components balanced at the dataset's
-    ``balanced_rtol`` × load scale (:func:`harmbal.orders.is_balanced`) are
-    drawn as 0: bars of height 0, or no bar on a log scale.
+    transverse vector per order. Components zero to round-off or at most the
+    dataset's negligible levels (``force_negligible_level``, …: classes
+    zero and negligible, docs/conventions.md) are drawn as 0: bars of height
+    0, or no bar on a log scale.
 
     Parameters
     ----------
@@ -695,12 +787,14 @@ def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: i
         Highest order drawn; default every order of the dataset.
     speed : int, default 0
         Index of the crank speed if the dataset has several.
+    quantities : sequence of {"force", "moment"}, default both
+        The rows to draw (the report leaves out a quantity with nothing free).
 
     Returns
     -------
     matplotlib.figure.Figure
-        Four axes (force per axis, force rotating, moment per axis, moment
-        rotating). Each bar is a ``Rectangle`` with gid
+        Two axes per quantity, in rows (by default four: force per axis,
+        force rotating, moment per axis, moment rotating). Each bar is a ``Rectangle`` with gid
         ``<quantity>-<axis or rotation>-order<k>`` (k as ``2`` or, for the
         half orders of a four-stroke with gas, ``1.5``), its height in N or
         N m.
@@ -711,29 +805,45 @@ def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: i
     if max_order is not None:
         sel = sel.sel(order=sel["order"] <= max_order)
     rtol = float(orders.attrs.get("balanced_rtol", BALANCED_RTOL))
-    fig = Figure(figsize=(11.0, 7.0), layout="constrained")
-    axes = fig.subplots(2, 2)
+    quantities = list(quantities)
+    if not quantities or set(quantities) - set(_QUANTITIES):
+        raise ValueError(f"quantities must be some of 'force', 'moment', not {quantities!r}")
+    fig = Figure(figsize=(11.0, 3.3 * len(quantities) + 0.4), layout="constrained")
+    axes = fig.subplots(len(quantities), 2, squeeze=False)
     axis_labels = {a: a for a in AXIS_COLOURS}
     rotation_labels = {"co": "co-rotating", "counter": "counter-rotating"}
-    for row, quantity in zip(axes, ("force", "moment")):
+    for row, quantity in zip(axes, quantities):
         name, symbol, unit = _QUANTITIES[quantity]
         scale = float(sel[f"{quantity}_scale"])
-        _bars(row[0], sel[quantity], "axis", AXIS_COLOURS, axis_labels, scale, rtol, log, quantity)
+        level = _negligible_levels(sel, quantity)
+        _bars(row[0], sel[quantity], "axis", AXIS_COLOURS, axis_labels, scale, rtol, log, quantity, level)
         _bars(row[1], sel[f"{quantity}_rotating"], "rotation", SPECTRUM_ROTATION_COLOURS, rotation_labels,
-              scale, rtol, log, quantity)
+              scale, rtol, log, quantity, level[1])
         row[0].set_ylabel(f"|{symbol}_k| per axis [{unit}]", fontsize=8)
         row[1].set_ylabel(f"|P| [{unit}]", fontsize=8)
         row[0].set_title(f"{name} per engine axis (peak)", fontsize=9)
         row[1].set_title(f"{name}: co- and counter-rotating phasors", fontsize=9)
     zero = "omitted (log scale)" if log else "drawn as 0"
-    fig.suptitle(f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the shaking loads",
+    _suptitle(fig, f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the shaking loads",
                  fontsize=11)
-    fig.supxlabel(f"peak amplitudes; moments about the reference point; components at most {rtol:g} × the "
-                  f"single-body load scale are balanced and {zero}", fontsize=7, color="0.3")
+    _supxlabel(fig, f"peak amplitudes; moments about the reference point; components zero to round-off or at most the "
+                  f"negligible level ({orders.attrs.get('negligible', 0.0):g} of one cylinder's share of the load "
+                  f"scale) are {zero}", fontsize=7, color="0.3")
     return fig
 
 
-def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0) -> Figure:
+def _negligible_levels(sel: xr.Dataset, quantity: str) -> np.ndarray:
+    """The negligible level of each engine axis (x, y, z) of ``quantity`` at
+    one speed: the roll's for the moment about x; 0 in datasets without levels."""
+    level = float(sel[f"{quantity}_negligible_level"]) if f"{quantity}_negligible_level" in sel else 0.0
+    levels = np.full(3, level)
+    if quantity == "moment" and "roll_negligible_level" in sel:
+        levels[0] = float(sel["roll_negligible_level"])
+    return levels
+
+
+def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0,
+                       hide_negligible: bool = True) -> Figure:
     """The shaking force and moment over one crank revolution, or over the
     working cycle with gas (two revolutions for a four-stroke, 0–720°).
 
@@ -746,6 +856,11 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
         dashed in the same colours.
     speed : int, default 0
         Index of the crank speed if the datasets have several.
+    hide_negligible : bool, default True
+        A quantity whose every axis stays at or below its negligible level
+        (:func:`negligible_peak`) in both runs is not drawn: its axes say
+        "negligible" or "zero to round-off" instead of showing round-off
+        magnified.
 
     Returns
     -------
@@ -765,11 +880,17 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
 
     runs, rpm = _runs(time, after, speed)
     span = _span(time)
-    fig = Figure(figsize=(9.0, 6.5), layout="constrained")
-    axes = fig.subplots(2, 1)
+    hidden = {q: hide_negligible and negligible_peak(runs, q, ("x", "y", "z")) for q in _QUANTITIES}
+    heights = [0.25 if hidden[q] else 1.0 for q in _QUANTITIES]
+    fig = Figure(figsize=(9.0, 0.9 + 2.8 * sum(heights)), layout="constrained")
+    axes = fig.subplots(2, 1, height_ratios=heights)
     for ax, quantity in zip(axes, ("force", "moment")):
         name, symbol, unit = _QUANTITIES[quantity]
-        for run, ds in runs.items():
+        quiet = hidden[quantity]
+        if quiet:
+            _quiet(ax, name, quiet, unit)
+            ax.axis("off")
+        for run, ds in ({} if quiet else runs).items():
             angle, values = _closed(ds["angle"].values, ds[quantity].transpose("axis", "angle").values, span)
             for axis, trace in zip(ds["axis"].values, values):
                 ax.plot(angle, trace, color=_colour(AXIS_COLOURS[str(axis)]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run],
@@ -777,18 +898,22 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
         handles = [Line2D([], [], color=_colour(c), label=f"{symbol}_{a}") for a, c in AXIS_COLOURS.items()]
         if after is not None:
             handles += [Line2D([], [], color="0.3", ls=RUN_STYLES[r], label=r) for r in runs]
-        ax.axhline(0, color="0.85", lw=0.6, zorder=0)
+        if not quiet:
+            ax.axhline(0, color="0.85", lw=0.6, zorder=0)
         _angle_axis(ax, span)
         ax.set_ylabel(f"{name} {symbol} [{unit}]", fontsize=8)
         ax.tick_params(labelsize=7)
-        ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+        ax.locator_params(axis="y", nbins=TICKS)
+        if not quiet:
+            ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     axes[0].set_title("Shaking force on the block", fontsize=9)
     axes[1].set_title("Shaking moment on the block about the reference point", fontsize=9)
-    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over {_period_name(time)}", fontsize=11)
+    _suptitle(fig, f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over {_period_name(time)}", fontsize=11)
     return fig
 
 
-def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0) -> Figure:
+def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: int = 0,
+                 hide_negligible: bool = True) -> Figure:
     """The loci of the transverse force and moment over one revolution (the
     working cycle with gas).
 
@@ -805,6 +930,10 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
         as a second, dashed curve.
     speed : int, default 0
         Index of the crank speed if the datasets have several.
+    hide_negligible : bool, default True
+        A locus that stays within its negligible level (:func:`negligible_peak`)
+        in both runs is not drawn (a circle of round-off would fill the
+        axes): its axes say "negligible" or "zero to round-off" instead.
 
     Returns
     -------
@@ -821,9 +950,18 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
     from matplotlib.figure import Figure
 
     runs, rpm = _runs(time, after, speed)
+    hidden = {q: hide_negligible and negligible_peak(runs, q, ("y", "z")) for q in _QUANTITIES}
+    widths = [0.45 if hidden[q] else 1.0 for q in _QUANTITIES]
     fig = Figure(figsize=(10.0, 5.4), layout="constrained")
-    for ax, quantity in zip(fig.subplots(1, 2), ("force", "moment")):
+    for ax, quantity in zip(fig.subplots(1, 2, width_ratios=widths), ("force", "moment")):
         name, symbol, unit = _QUANTITIES[quantity]
+        quiet = hidden[quantity]
+        ax.set_xlabel(f"{symbol}_y [{unit}]", fontsize=8)
+        ax.set_ylabel(f"{symbol}_z [{unit}]", fontsize=8)
+        if quiet:
+            _quiet(ax, f"{name} locus", quiet, unit)
+            ax.axis("off")
+            continue
         for run, ds in runs.items():
             values = ds[quantity].sel(axis=["y", "z"]).transpose("axis", "angle").values
             _, (y, z) = _closed(ds["angle"].values, values)
@@ -833,15 +971,49 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
         ax.axhline(0, color="0.85", lw=0.6, zorder=0)
         ax.axvline(0, color="0.85", lw=0.6, zorder=0)
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel(f"{symbol}_y [{unit}]", fontsize=8)
-        ax.set_ylabel(f"{symbol}_z [{unit}]", fontsize=8)
+        ax.locator_params(nbins=TICKS)
         ax.tick_params(labelsize=7)
         ax.set_title(f"{name} locus" + (" about the reference point" if quantity == "moment" else ""), fontsize=9)
         if after is not None:
             ax.legend(fontsize=7, frameon=False)
-    fig.suptitle(f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over {_period_name(time)}, "
+    _suptitle(fig, f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over {_period_name(time)}, "
                  "seen from the front (y right, z up; + the origin)", fontsize=11)
     return fig
+
+
+def negligible_peak(runs: dict, quantity: str, axes: Sequence[str]) -> tuple[str, float, float] | None:
+    """Whether ``quantity`` is negligible over the whole period in every run
+    (time-domain Datasets at one speed): its peak over ``axes`` at most
+    ``negligible`` × the load scale / the number of cylinders (the level of
+    one order component, docs/conventions.md).
+
+    Returns
+    -------
+    tuple of (str, float, float) or None
+        ("zero" or "negligible", the peak, the level) [N or N m], or None if
+        the quantity is not negligible somewhere (or the Datasets carry no
+        negligible fraction).
+    """
+    from ..orders.spectrum import ZERO_RTOL
+
+    first = next(iter(runs.values()))
+    fraction = float(first.attrs.get("negligible", 0.0))
+    if fraction <= 0:
+        return None
+    scale = max(float(ds[f"{quantity}_scale"]) for ds in runs.values())
+    level = fraction * scale / max(int(first.attrs.get("cylinders", 1)), 1)
+    peak = max(float(np.abs(ds[quantity].sel(axis=list(axes)).values).max()) for ds in runs.values())
+    if peak > level:
+        return None
+    return ("zero" if peak <= ZERO_RTOL * scale else "negligible"), peak, level
+
+
+def _quiet(ax: Axes, what: str, quiet: tuple[str, float, float], unit: str) -> None:
+    """Say in ``ax`` that ``what`` is not drawn: zero or negligible, with its peak and level."""
+    kind, peak, level = quiet
+    text = (f"{what}: zero to round-off" if kind == "zero"
+            else f"{what}: negligible\n(peak {peak:.2g} {unit}, level {level:.2g} {unit})")
+    _note(ax, text)
 
 
 def phasing_figure(scene: Scene) -> Figure:
@@ -961,7 +1133,7 @@ def lever_figure(joints: xr.Dataset, *, speed: int = 0) -> Figure:
         _note(right, "no lever balancer")
     else:
         _transmission(right, sel)
-    fig.suptitle(f"{joints.attrs.get('engine', '')} at {rpm:.6g} rpm: joint forces and transmission angle",
+    _suptitle(fig, f"{joints.attrs.get('engine', '')} at {rpm:.6g} rpm: joint forces and transmission angle",
                  fontsize=11)
     return fig
 
@@ -1047,7 +1219,7 @@ def pressure_figure(torque: xr.Dataset, *, cylinders: Sequence[str] | None = Non
     right.set_title("p–V diagram (loop area: indicated work)", fontsize=9, pad=14)
     right.tick_params(labelsize=7)
     right.legend(fontsize=7, frameon=False, loc="upper right")
-    fig.suptitle(f"{torque.attrs.get('engine', '')}: cylinder pressure (absolute)", fontsize=11)
+    _suptitle(fig, f"{torque.attrs.get('engine', '')}: cylinder pressure (absolute)", fontsize=11)
     return fig
 
 
@@ -1091,7 +1263,7 @@ def torque_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     ax.set_ylabel("torque on the crankshaft T [N m]", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    fig.suptitle(f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm (constant speed): torque over "
+    _suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm (constant speed): torque over "
                  f"{_period_name(torque)}", fontsize=11)
     return fig
 
@@ -1154,7 +1326,7 @@ def torque_spectrum_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     ax.set_ylabel("torque amplitude |T_k| (peak) [N m]", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper right")
-    fig.suptitle(f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: orders of the torque on the crankshaft "
+    _suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: orders of the torque on the crankshaft "
                  f"(mean {float(sel['mean_torque']):.4g} N m not drawn)", fontsize=11)
     return fig
 
@@ -1200,7 +1372,7 @@ def speed_fluctuation_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     delta = float(sel["fluctuation_coefficient"])
-    fig.suptitle(f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: speed fluctuation, δ = (ω_max − ω_min)/ω_mean "
+    _suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: speed fluctuation, δ = (ω_max − ω_min)/ω_mean "
                  f"= {delta:.4g}, J₀ = {float(sel['flywheel_inertia']):.4g} kg m²", fontsize=11)
     return fig
 
@@ -1347,7 +1519,7 @@ def crank_pin_figure(loads: xr.Dataset, *, cylinders: Sequence[str] | None = Non
     _polar_axes(right, everything, everything, "across the rod [kN]", "along the rod (big end → small end) [kN]",
                 "Big-end bearing: force of the crank pin, rod frame")
     left.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    fig.suptitle(f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: crank-pin and big-end polar diagrams over "
+    _suptitle(fig, f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: crank-pin and big-end polar diagrams over "
                  f"{_period_name(loads)}", fontsize=11)
     return fig
 
@@ -1396,6 +1568,6 @@ def main_bearing_figure(loads: xr.Dataset, *, speed: int = 0) -> Figure:
                     f"bearing {label} (x = {x:.6g} mm): peak {np.hypot(t[i], z[i])[k]:.4g} kN")
     for ax in axes[len(labels):]:
         ax.set_visible(False)
-    fig.suptitle(f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: main-bearing loads\nover {_period_name(loads)} "
+    _suptitle(fig, f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: main-bearing loads\nover {_period_name(loads)} "
                  "(statically determinate split)", fontsize=10)
     return fig

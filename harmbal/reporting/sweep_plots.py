@@ -16,25 +16,38 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .plots import OKABE_ITO
+from .plots import OKABE_ITO, _suptitle, fitted
+from .sweeps import _at_top_speed, _rounded, _shown_units
 
 if TYPE_CHECKING:
     import xarray as xr
     from matplotlib.figure import Figure
 
 _UNITS = {"force": "N", "moment": "N m"}
-
-
-def _at_top_speed(ds):
-    if "speed" in ds.dims:
-        i = int(np.argmax(ds["speed"].values))
-        return ds.isel(speed=i), float(ds["rpm"].values[i])
-    return ds, float(np.atleast_1d(ds.attrs["speed_rad_s"])[0]) * 30 / np.pi
+#: What a sweep figure can draw: the loads as given, and with ``design=True`` the loads after the design.
+_NAMES = {"force": "free force", "moment": "free moment", "residual_force": "free force after the design",
+          "residual_moment": "free moment after the design"}
 
 
 def _label(ds, key: str) -> str:
-    units = ds[key].attrs.get("units")
+    units, _ = _shown_units(ds, key)
     return f"{key} [{units}]" if units else key
+
+
+def _shown(ds, key: str, values=None) -> np.ndarray:
+    """A key's values (default its coordinate in ``ds``) in the units they
+    were typed in (``display_units`` of the key in ``ds``)."""
+    return (ds[key].values if values is None else np.asarray(values)) / _shown_units(ds, key)[1]
+
+
+def _group(name: str) -> str:
+    return "force" if name.endswith("force") else "moment"
+
+
+def _amplitude(ds, name: str):
+    """``{name}_amplitude`` with its round-off (zero class) drawn as 0."""
+    amplitude = ds[f"{name}_amplitude"]
+    return amplitude.copy(data=_rounded(ds, amplitude.values, _group(name)))
 
 
 def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, order: int = 1,
@@ -54,11 +67,15 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
         The order whose amplitude (peak of its vector over a revolution) is
         drawn; for a line, every order of ``ds`` is drawn and ``order`` is
         ignored.
-    name : {"force", "moment"}
+    name : {"force", "moment", "residual_force", "residual_moment"}
+        The loads as given, or (``residual_*``, a sweep with ``design=True``)
+        with the balancers designed per variant. Round-off (the zero class)
+        is drawn as 0.
 
     Returns
     -------
     matplotlib.figure.Figure
+        Keys on the axes in the units their values were typed in.
     """
     from matplotlib.figure import Figure
 
@@ -67,10 +84,14 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
     for key in (x, y):
         if key is not None and key not in keys:
             raise ValueError(f"{key!r} is not a swept key; the keys are {', '.join(keys)}")
-    if name not in _UNITS:
-        raise ValueError(f"name must be 'force' or 'moment', not {name!r}")
+    if name not in _NAMES or f"{name}_amplitude" not in ds:
+        raise ValueError(f"name must be one of {', '.join(n for n in _NAMES if f'{n}_amplitude' in ds)}, "
+                         f"not {name!r}")
     ds, rpm = _at_top_speed(ds)
-    amplitude = ds[f"{name}_amplitude"]
+    amplitude = _amplitude(ds, name)
+    units, what = _UNITS[_group(name)], _NAMES[name]
+    if name in _UNITS and f"residual_{name}_amplitude" in ds:
+        what = f"free {name} before the design"
     grid = ds.attrs.get("grid_shape") is not None
     fig = Figure(figsize=(6.4, 4.4), layout="constrained")
     ax = fig.add_subplot()
@@ -83,8 +104,8 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
         if others:
             table = table.min(others)
         table = table.transpose(y, x)
-        mesh = ax.pcolormesh(table[x].values, table[y].values, table.values, shading="nearest", cmap="viridis")
-        fig.colorbar(mesh, ax=ax, label=f"order {order} {name} amplitude [{_UNITS[name]}]")
+        mesh = ax.pcolormesh(_shown(ds, x, table[x]), _shown(ds, y, table[y]), table.values, shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label=fitted(f"order {order} {what} amplitude [{units}]", 3.6, 10))
         ax.set_ylabel(_label(ds, y))
     elif grid and len(keys) > 1:
         table = amplitude.set_index(variant=keys).unstack("variant")
@@ -92,19 +113,19 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
             table = table.min(others)
         colours = list(OKABE_ITO.values())[1:]
         for i, k in enumerate(table["order"].values):
-            ax.plot(table[x].values, table.sel(order=k).values, marker="o", ms=3, color=colours[i % len(colours)],
+            ax.plot(_shown(ds, x, table[x]), table.sel(order=k).values, marker="o", ms=3, color=colours[i % len(colours)],
                     label=f"order {int(k)}")
         ax.legend()
-        ax.set_ylabel(f"{name} amplitude [{_UNITS[name]}]")
+        ax.set_ylabel(f"{what} amplitude [{units}]")
     else:
         colours = list(OKABE_ITO.values())[1:]
         for i, k in enumerate(amplitude["order"].values):
-            ax.plot(ds[x].values, amplitude.sel(order=k).values, "o", ms=3, color=colours[i % len(colours)],
+            ax.plot(_shown(ds, x), amplitude.sel(order=k).values, "o", ms=3, color=colours[i % len(colours)],
                     label=f"order {int(k)}")
         ax.legend()
-        ax.set_ylabel(f"{name} amplitude [{_UNITS[name]}]")
+        ax.set_ylabel(f"{what} amplitude [{units}]")
     ax.set_xlabel(_label(ds, x))
-    ax.set_title(f"{ds.attrs.get('engine', '')}: {name} residual at {rpm:.6g} rpm{note}", fontsize="medium")
+    ax.set_title(fitted(f"{ds.attrs.get('engine', '')}: {what} at {rpm:.6g} rpm{note}", 5.0, 10), fontsize=10)
     return fig
 
 
@@ -131,7 +152,7 @@ def monte_carlo_figure(mc: xr.Dataset, *, order: int = 1, name: str = "force") -
     if name not in _UNITS:
         raise ValueError(f"name must be 'force' or 'moment', not {name!r}")
     mc, rpm = _at_top_speed(mc)
-    values = np.sort(mc[f"{name}_amplitude"].sel(order=order).values)
+    values = np.sort(_amplitude(mc, name).sel(order=order).values)  # round-off drawn as 0
     units = _UNITS[name]
     fig = Figure(figsize=(11, 3.8), layout="constrained")
     hist, cdf, bars = fig.subplots(1, 3)
@@ -151,8 +172,8 @@ def monte_carlo_figure(mc: xr.Dataset, *, order: int = 1, name: str = "force") -
     bars.barh([p for _, p in ranked], [v for v, _ in ranked], color=OKABE_ITO["bluish_green"])
     bars.set_xlim(0, 1)
     bars.set_xlabel(f"share of the variance (R² {float(mc[f'{name}_sensitivity_r2'].sel(order=order)):.3g})")
-    fig.suptitle(f"{mc.attrs.get('engine', '')}: order {order} {name} residual over {values.size} samples at "
-                 f"{rpm:.6g} rpm", fontsize="medium")
+    _suptitle(fig, f"{mc.attrs.get('engine', '')}: order {order} {name} residual over {values.size} samples at "
+              f"{rpm:.6g} rpm", 10)
     return fig
 
 
@@ -191,8 +212,9 @@ def campbell_figure(orders: xr.Dataset, *, name: str = "force") -> Figure:
     floor = positive.max() * 1e-6 if positive.size else 1.0
     mesh = ax.pcolormesh(rpm, order, np.maximum(amplitude, floor).T, shading="nearest", cmap="viridis",
                          norm=LogNorm(vmin=floor, vmax=max(floor, float(amplitude.max()))))
-    fig.colorbar(mesh, ax=ax, label=f"{name} amplitude [{_UNITS[name]}] (floor 1e-6 of the largest)")
+    fig.colorbar(mesh, ax=ax, label=f"{name} amplitude [{_UNITS[name]}]")
     ax.set_xlabel("crank speed [rpm]")
     ax.set_ylabel("order")
-    ax.set_title(f"{orders.attrs.get('engine', '')}: {name} per order and speed", fontsize="medium")
+    ax.set_title(fitted(f"{orders.attrs.get('engine', '')}: {name} per order and speed (log colours from 1e-6 of "
+                        "the largest)", 5.0, 10), fontsize=10)
     return fig

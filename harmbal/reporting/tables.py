@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..orders.spectrum import BALANCED_RTOL, is_balanced
+from ..orders.spectrum import BALANCED_RTOL, FREE, NEGLIGIBLE, ZERO, classify, is_balanced, phase_degrees
 
 #: A sweep with more speeds than this prints its lowest and highest speed only.
 PRINTED_SPEEDS = 8
@@ -29,11 +29,27 @@ def targeted_rows(check):
 
 
 def _cell(phasor: complex, scale: float, rtol: float) -> str:
-    amplitude = abs(phasor)
-    if is_balanced(amplitude, scale, rtol):
+    """Amplitude and phase of a phasor, or 0 without a phase when it is at
+    most ``rtol`` × ``scale`` (round-off)."""
+    return _class_cell(phasor, ZERO if is_balanced(abs(phasor), scale, rtol) else FREE)
+
+
+def _class_cell(phasor: complex, code: int) -> str:
+    """A table cell by the component's class: ``0`` (exact zero, round-off),
+    ``~0`` (negligible), else the amplitude and the phase in (−180°, 180°]."""
+    if code == ZERO:
         return f" {'0':>10}{'':>8}"
-    phase = round(float(np.degrees(np.angle(phasor))), 1) + 0.0  # no "-0.0"
-    return f" {amplitude:>10.5g} {phase:>6.1f}°"
+    if code == NEGLIGIBLE:
+        return f" {'~0':>10}{'':>8}"
+    return f" {abs(phasor):>10.5g} {phase_degrees(phasor, 1):>6.1f}°"
+
+
+def negligible_note(levels: dict[str, float], negligible: float) -> str:
+    """The legend of the classes: what ``0`` and ``~0`` mean, with the
+    negligible ``levels`` (unit → amplitude) at this speed."""
+    shown = ", ".join(f"{value:.2g} {units}" for units, value in levels.items())
+    return (f"0: exact zero (round-off); ~0: negligible (at most {negligible:g} of one cylinder's share of the load "
+            f"scale: {shown})")
 
 
 def order_table(orders) -> str:
@@ -46,7 +62,7 @@ def order_table(orders) -> str:
     """
     def at_speed(i):
         sel = orders.isel(speed=i) if "speed" in orders.dims else orders
-        return {name: sel[name].values for name in ORDER_VALUES}
+        return {name: sel[name].values for name in ORDER_VALUES if name in sel}
 
     return order_table_of_arrays(orders.attrs, orders["speed"].values, at_speed)
 
@@ -76,16 +92,17 @@ def torque_table(torque) -> str:
     return "\n".join(lines)
 
 
-#: What :func:`order_table_of_arrays` reads of each speed.
+#: What :func:`order_table_of_arrays` reads of each speed (the classes and levels where the dataset has them:
+#: archives written before them are judged from the scales).
 ORDER_VALUES = tuple(f"{p}{name}{q}" for name in ("force", "moment")
-                     for p, q in (("", ""), ("", "_rotating"), ("", "_scale"), ("aliasing_error_", "")))
+                     for p, q in (("", ""), ("", "_rotating"), ("", "_scale"), ("aliasing_error_", ""),
+                                  ("", "_class"), ("", "_negligible_level"))) + ("roll_class", "roll_negligible_level")
 
 
 def order_table_of_arrays(attrs: dict, speeds, at_speed) -> str:
     """:func:`order_table` from plain arrays: the order view's attributes,
     the speeds [rad/s] and ``at_speed(i)``, the :data:`ORDER_VALUES` at speed
     ``i`` (arrays as in the order Dataset, without the speed dimension)."""
-    rtol = float(attrs.get("balanced_rtol", 1e-10))
     revs = int(attrs.get("revolutions", 1))
     ref = np.asarray(attrs.get("reference_point", [0.0, 0.0, 0.0]), dtype=float) * 1e3
     lines = [
@@ -98,23 +115,53 @@ def order_table_of_arrays(attrs: dict, speeds, at_speed) -> str:
     rpm = speeds * 30 / np.pi
     for i in _printed_speeds(rpm, lines):
         sel = at_speed(i)
+        classes = cell_classes(sel, attrs)
         lines.append("")
         lines.append(f"Speed {rpm[i]:.6g} rpm ({speeds[i]:.6g} rad/s)")
         for name, units, label in (("force", "N", "Free force"), ("moment", "N m", "Free moment")):
-            scale = float(sel[f"{name}_scale"])
             axes = "".join(f"{a + ' [' + units + ']':>19}" for a in ("x", "y", "z"))
             lines.append(f"{label}  {'order':>5}{axes}{'co [' + units + ']':>19}{'counter [' + units + ']':>19}")
-            values = sel[name]
-            rotating = sel[f"{name}_rotating"]
-            for k in range(len(values)):
-                row = list(values[k]) + list(rotating[k])
-                if k == 0 and all(is_balanced(abs(v), scale, rtol) for v in row):
+            row_values = np.concatenate([sel[name], sel[f"{name}_rotating"]], axis=-1)
+            row_classes = classes[name]
+            for k in range(len(row_values)):
+                if k == 0 and not row_classes[k].any():
                     continue
                 order = f"{k / revs:g}"  # half orders of a four-stroke cycle with gas
-                lines.append(f"{'':{len(label) + 2}}{order:>5}" + "".join(_cell(v, scale, rtol) for v in row))
+                lines.append(f"{'':{len(label) + 2}}{order:>5}"
+                             + "".join(_class_cell(v, c) for v, c in zip(row_values[k], row_classes[k])))
             tail = float(np.max(sel[f"aliasing_error_{name}"]))
             lines.append(f"{'':{len(label) + 2}}aliasing estimate {tail:.2g} {units}")
+        lines.append(negligible_note(classes["levels"], float(attrs.get("negligible", 0.0))))
     return "\n".join(lines)
+
+
+def cell_classes(sel: dict, attrs: dict) -> dict:
+    """The class code of every cell of :func:`order_table_of_arrays` at one
+    speed, (order, x/y/z/co/counter) per quantity, and the negligible levels:
+    the dataset's classes for the rotating phasors and the roll, the per-axis
+    transverse cells judged against the same levels. Archives older than the
+    classes (no ``*_class``) are judged from the load scales and the attributes."""
+    from ..orders.spectrum import negligible_level
+    from ..scene.schema import DEFAULT_NEGLIGIBLE
+
+    fraction, cylinders = float(attrs.get("negligible", DEFAULT_NEGLIGIBLE)), int(attrs.get("cylinders", 1))
+    out, levels = {}, {}
+    for name, units in (("force", "N"), ("moment", "N m")):
+        scale = float(sel[f"{name}_scale"])
+        level = float(sel.get(f"{name}_negligible_level", negligible_level(scale, cylinders, fraction)))
+        per_axis = classify(sel[name], scale, level)
+        rotating = sel.get(f"{name}_class")
+        rotating = classify(sel[f"{name}_rotating"], scale, level) if rotating is None else np.asarray(rotating)
+        if name == "moment":
+            roll = sel.get("roll_class")
+            per_axis[:, 0] = per_axis[:, 0] if roll is None else roll
+        out[name] = np.concatenate([per_axis, rotating], axis=-1)
+        levels[units] = level
+    roll_level = sel.get("roll_negligible_level")
+    if roll_level is not None and not np.isclose(float(roll_level), levels["N m"], rtol=1e-12, atol=0):
+        levels["N m (roll)"] = float(roll_level)
+    out["levels"] = levels
+    return out
 
 
 def _printed_speeds(rpm: np.ndarray, lines: list[str]):
@@ -136,7 +183,7 @@ def _arms(angles: np.ndarray) -> str:
 
 
 def _remedy(order: int, co: complex, counter: complex) -> str:
-    """The balancer that makes this pair of rotating phasors (0 = balanced):
+    """The balancer that makes this pair of rotating phasors (0 = not free):
     crank counterweights turn at +1×, balance shafts at ±k×, and a
     Lanchester pair at ±k× makes a standing vector (|co| = |counter|)."""
     if co and counter:
@@ -149,8 +196,11 @@ def _remedy(order: int, co: complex, counter: complex) -> str:
 
 
 def verdict(stars, order: int) -> str:
-    """One line per order: balanced, or which components are free and what
-    kind of balancer would cancel them (``stars`` at one speed)."""
+    """One line per order (``stars`` at one speed): which components are
+    free and what kind of balancer would cancel them; else ``negligible``
+    when something is left below the negligible level, ``balanced`` when
+    everything is zero to round-off. Only free components (class 2) get a
+    remedy."""
     parts = []
     for name, letter in (("force", "F"), ("moment", "M")):
         co, counter = stars[f"{name}_rotating"].sel(order=order).values * stars[f"{name}_free"].sel(order=order).values
@@ -159,14 +209,26 @@ def verdict(stars, order: int) -> str:
             parts.append(f"{letter} {which} ({_remedy(order, co, counter)})")
     if bool(stars["roll_free"].sel(order=order)):
         parts.append("roll")
-    return "free: " + "; ".join(parts) if parts else "balanced"
+    if parts:
+        return "free: " + "; ".join(parts)
+    return "negligible" if _order_codes(stars, order).any() else "balanced"
+
+
+def _order_codes(stars, order: int) -> np.ndarray:
+    """Class codes of every component of one order of a stars Dataset: co,
+    counter of force and moment, then the roll. Without class variables
+    (older archives), zero or free from the ``*_free`` flags."""
+    names = ("force_class", "moment_class", "roll_class")
+    if all(n in stars for n in names):
+        return np.concatenate([np.atleast_1d(stars[n].sel(order=order).values) for n in names])
+    flags = ("force_free", "moment_free", "roll_free")
+    return np.concatenate([np.atleast_1d(stars[n].sel(order=order).values) for n in flags]).astype(np.int8) * FREE
 
 
 def stars_table(stars) -> str:
     """Crank stars, free force and free moment per order from
     :func:`harmbal.stars`, one block per speed, with a verdict per order."""
     attrs = stars.attrs
-    rtol = float(attrs.get("balanced_rtol", 1e-10))
     intervals = ", ".join(f"{d:g}" for d in np.round(np.degrees(stars["firing_interval"].values), 2))
     lines = [
         f"{attrs.get('engine', '')}: {stars.sizes['cylinder']} cylinders, {attrs.get('cylinder_types')} cylinder "
@@ -179,18 +241,19 @@ def stars_table(stars) -> str:
     for sel, rpm in _at_speeds(stars, lines):
         lines.append("")
         lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
-        f_scale, m_scale = float(sel["force_scale"]), float(sel["moment_scale"])
         header = (f"{'order':>5}  {'F co [N]':>18}{'F counter [N]':>19}{'M co [N m]':>19}{'M counter [N m]':>19}"
                   f"{'roll [N m]':>19}  verdict")
         lines.append(header)
         for k in sel["order"].values[1:]:
-            force = sel["force_rotating"].values[k]
-            moment = sel["moment_rotating"].values[k]
-            cells = [_cell(v, f_scale, rtol) for v in force] + [_cell(v, m_scale, rtol) for v in moment]
-            cells.append(_cell(sel["moment"].values[k, 0], m_scale, rtol))
-            lines.append(f"{k:>5}  " + "".join(cells) + f"  {verdict(sel, int(k))}")
+            values = [*sel["force_rotating"].values[k], *sel["moment_rotating"].values[k], sel["moment"].values[k, 0]]
+            cells = "".join(_class_cell(v, c) for v, c in zip(values, _order_codes(sel, int(k))))
+            lines.append(f"{k:>5}  " + cells + f"  {verdict(sel, int(k))}")
         lines.append(f"{'':>5}  estimated aliasing error {float(sel['aliasing_error_force']):.2g} N, "
                      f"{float(sel['aliasing_error_moment']):.2g} N m")
+        if "force_negligible_level" in sel:
+            lines.append(negligible_note({"N": float(sel["force_negligible_level"]),
+                                          "N m": float(sel["moment_negligible_level"])},
+                                         float(attrs.get("negligible", 0.0))))
     lines.append("")
     lines.append(f"{'order':>5}  {'regular':>7}  star (whole crank)")
     for k in stars["order"].values[1:]:
@@ -219,8 +282,7 @@ def _phasor(value: complex, units: str) -> str:
     """Amplitude and phase of a phasor, or 0 without a phase."""
     if value == 0:
         return f"{'0':>11} {units:<3} {'':>7}"
-    phase = round(float(np.degrees(np.angle(value))), 1) + 0.0
-    return f"{abs(value):>11.5g} {units:<3} {phase:>6.1f}°"
+    return f"{abs(value):>11.5g} {units:<3} {phase_degrees(value, 1):>6.1f}°"
 
 
 def _component_label(order: int, component: str) -> str:
@@ -249,6 +311,7 @@ def design_table(result) -> str:
             state = "cancelled" if ds["cancelled"].values[i, j] else "LEFT"
             lines.append(_component_label(int(k), str(name)) + _phasor(complex(ds["before"].values[i, j]), units)
                          + _phasor(complex(ds["predicted"].values[i, j]), units) + f"  {state}")
+    lines += _made_worse_block(ds, "the new elements")
     if result.messages:
         lines += ["", *(f"! {m}" for m in result.messages)]
     return "\n".join(lines)
@@ -268,27 +331,12 @@ def verify_table(check) -> str:
                   f"{'|Δ|':>11}{'tolerance':>11}  result"]
         for k, name, row, units in targeted_rows(sel):
             lines.append(_component_label(k, name) + _phasor(complex(row["before"]), units)
-                         + _phasor(complex(row["predicted"]), units) + _phasor(complex(row["exact"]), units)
+                         + _phasor(complex(row["predicted"]), units) + _phasor(_verify_exact_residual(row), units)
                          + f"{float(row['difference']):>11.2g}{float(row['tolerance']):>11.2g}  "
                          + ("pass" if bool(row["passed"]) else "FAIL"))
         lines += ["", f"{'':>5}  {'per axis':<15}{'before':>14}{'after':>14}{'removed':>10}"]
-        for name, units in (("force", "N"), ("moment", "N m")):
-            for axis in sel["axis"].values:
-                was, now = float(sel[f"peak_{name}_before"].sel(axis=axis)), float(sel[f"peak_{name}_after"].sel(axis=axis))
-                if max(was, now) <= 1e-10 * float(sel[f"{name}_scale"]):
-                    continue
-                share = round(float(sel[f"peak_{name}_removed"].sel(axis=axis)), 1) + 0.0
-                lines.append(f"{'peak':>5}  {name + ' ' + axis + ' [' + units + ']':<15}{was:>14.5g}{now:>14.5g}"
-                             f"{share:>9.1f}%")
-            for k in sel["order"].values:
-                for axis in sel["axis"].values:
-                    was, now = float(sel[f"{name}_before"].sel(order=k, axis=axis)), float(
-                        sel[f"{name}_after"].sel(order=k, axis=axis))
-                    if max(was, now) <= 1e-10 * float(sel[f"{name}_scale"]):
-                        continue
-                    share = round(float(sel[f"{name}_removed"].sel(order=k, axis=axis)), 1) + 0.0
-                    lines.append(f"{k:>5}  {name + ' ' + axis + ' [' + units + ']':<15}{was:>14.5g}{now:>14.5g}"
-                                 f"{share:>9.1f}%")
+        lines += _verify_axis_rows(sel) + _verify_legend(sel)
+        lines += _made_worse_block(sel, "the balancer elements")
     return "\n".join(lines)
 
 
@@ -448,3 +496,131 @@ def clearance_table(clearance) -> str:
                      f"{np.degrees(clearance['angle'].values[i]):>8.1f}°  "
                      f"{'COLLISION' if clearance['collision'].values[i] else 'clear'}")
     return "\n".join(lines)
+
+
+def power_and_fluctuation_table(torque) -> str:
+    """Per speed, the indicated power and, with a ``[flywheel]`` table, the
+    coefficient of speed fluctuation and the flywheel a target needs, of a
+    torque Dataset (``/torque`` of an analysis with gas).
+
+    Parameters
+    ----------
+    torque : xarray.Dataset
+        ``mean_torque`` [N m] and ``speed`` [rad/s]; with a ``[flywheel]``
+        also ``flywheel_inertia`` [kg m²], ``load_torque`` [N m],
+        ``fluctuation_coefficient`` [1] per speed and, for a target,
+        ``flywheel_inertia_needed`` [kg m²] per speed.
+
+    Returns
+    -------
+    str
+        The table: speed [rpm], indicated power = mean torque × speed [kW],
+        δ = (ω_max − ω_min)/ω_mean [1] and J₀ needed for the target
+        [kg m²]; a long sweep prints its lowest and highest speed.
+    """
+    speeds = np.atleast_1d(torque["speed"].values)
+    rpm = speeds * 30 / np.pi
+    mean = float(torque["mean_torque"])
+    flywheel = "fluctuation_coefficient" in torque
+    lines = [f"Indicated power{' and speed fluctuation' if flywheel else ''} per speed (the cycle's mean speed):",
+             f"  power = mean torque {mean:.6g} N m × speed"]
+    header = f"  {'speed [rpm]':>12}{'power [kW]':>14}"
+    columns = []
+    if flywheel:
+        lines += [f"  [flywheel] J₀ {float(torque['flywheel_inertia']):.6g} kg m² (constant; the moving parts' "
+                  f"inertia is added), load torque {float(torque['load_torque']):.6g} N m (constant)",
+                  "  δ = (ω_max − ω_min)/ω_mean"]
+        header += f"{'δ [1]':>12}"
+        columns.append((np.atleast_1d(torque["fluctuation_coefficient"].values), "{:>12.4g}"))
+        needed = torque.get("flywheel_inertia_needed")
+        if needed is not None:
+            target = float(needed.attrs["fluctuation_target"])
+            header += f"{f'J₀ for δ = {target:g} [kg m²]':>28}"
+            columns.append((np.atleast_1d(needed.values), "{:>28.5g}"))
+    shown = _printed_speeds(rpm, [])
+    if len(shown) < rpm.size:
+        lines.append(f"  {rpm.size} speeds: the lowest and the highest shown; every speed is in /torque")
+    rows = [f"  {rpm[i]:>12.6g}{mean * speeds[i] / 1e3:>14.5g}" + "".join(fmt.format(v[i]) for v, fmt in columns)
+            for i in shown]
+    return "\n".join(lines + ["", header] + rows)
+
+
+# Helpers of design_table and verify_table.
+
+
+def _made_worse_block(ds, by: str) -> list[str]:
+    """The components a design or verify Dataset (at one speed) finds made
+    worse, not targeted: a labelled block, or a line saying nothing was."""
+    from ..balance.verify import CHECKED_ORDER, describe_component, worsened_rows
+
+    if "worsened" not in ds:  # an archive written before the check
+        return []
+    rows = list(worsened_rows(ds))
+    orders = ds[CHECKED_ORDER].values
+    if not rows:
+        return ["", f"Nothing else made worse by {by} (orders {orders.min()}-{orders.max()}, every component)."]
+    return ["", f"Made worse (not targeted) by {by}:"] + [
+        f"  {describe_component(k, name)} {was:.5g} → {now:.5g} {units}" for k, name, was, now, units, _ in rows]
+
+
+def _verify_level(ds, kind: str) -> float:
+    """The negligible level [N or N m] of ``kind`` (force or moment) in a
+    verify Dataset at one speed; 0 for an archive written without it."""
+    name = f"{kind}_negligible_level"
+    return float(ds[name]) if name in ds else 0.0
+
+
+def _verify_legend(ds) -> list[str]:
+    """What ``0`` and ``~0`` mean in a verify Dataset's table at one speed
+    (nothing for an archive written without the negligible levels)."""
+    if _verify_level(ds, "force") <= 0:
+        return []
+    return [f"{'':>5}  0: exact zero (round-off); ~0: negligible (at most {ds.attrs['negligible']:g} of one "
+            f"cylinder's share of the load scale: {_verify_level(ds, 'force'):.2g} N, "
+            f"{_verify_level(ds, 'moment'):.2g} N m)"]
+
+
+def _verify_exact_residual(row) -> complex:
+    """The exact residual of a verify row, exactly 0 where it is round-off."""
+    from ..orders.spectrum import ZERO
+
+    if "exact_class" in row and int(row["exact_class"]) == ZERO:
+        return 0j
+    return complex(row["exact"])
+
+
+def _classed_amplitude(value: float, scale: float, level: float) -> str:
+    """An amplitude [N or N m] by its class, 14 wide: ``0`` (round-off),
+    ``~0`` (negligible), else the value."""
+    from ..orders.spectrum import NEGLIGIBLE, ZERO, classify
+
+    code = int(classify(value, scale, level))
+    return f"{'0' if code == ZERO else '~0' if code == NEGLIGIBLE else format(value, '.5g'):>14}"
+
+
+def _verify_axis_rows(sel) -> list[str]:
+    """The per-axis rows of a verify Dataset at one speed: the peaks over
+    the revolution, then each verified order, forces then moments."""
+    lines = []
+    for name, units in (("force", "N"), ("moment", "N m")):
+        scale, level = float(sel[f"{name}_scale"]), _verify_level(sel, name)
+        for prefix, order in [("peak_", None)] + [("", k) for k in sel["order"].values]:
+            for axis in sel["axis"].values:
+                at = {"axis": axis} if order is None else {"order": order, "axis": axis}
+                values = (sel[f"{prefix}{name}_{what}"].sel(at) for what in ("before", "after", "removed"))
+                lines += _verify_axis_row("peak" if order is None else order, f"{name} {axis} [{units}]", *values,
+                                          scale, level)
+    return lines
+
+
+def _verify_axis_row(order, label: str, was, now, removed, scale: float, level: float) -> list[str]:
+    """A per-axis row of the verify table (before, after, share removed), or
+    none if both are round-off."""
+    from ..orders.spectrum import ZERO, classify
+
+    was, now = float(was), float(now)
+    if classify(max(was, now), scale, level) == ZERO:
+        return []
+    share = round(float(removed), 1) + 0.0
+    return [f"{order:>5}  {label:<15}{_classed_amplitude(was, scale, level)}{_classed_amplitude(now, scale, level)}"
+            f"{share:>9.1f}%"]

@@ -8,12 +8,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, EFFECTS, INERTIA_EFFECTS, MAX_SAMPLES, MAX_SPEEDS,
+from .schema import (_MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, DEFAULT_NEGLIGIBLE, NEGLIGIBLE_RANGE, EFFECTS, INERTIA_EFFECTS, MAX_SAMPLES, MAX_SPEEDS,
                      PISTON_MODELS, ROD_MODELS, ROTATIONS, Cylinder, Model, Sampling, _closest)
 
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _SWEEP_KEYS = {"from", "to", "points"}
-_MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod"}
+_MODEL_KEYS = {"effects", "piston", "series_harmonics", "rod", "negligible"}
 _SAMPLING_KEYS = {"samples_per_rev", "accuracy", "max_order"}
 
 
@@ -127,7 +127,17 @@ class EngineTables:
         if "series_harmonics" in table and piston != "series":
             self.fail("model.series_harmonics", table["series_harmonics"], 'only used with piston = "series"')
         rod = self.choice(table, "rod", "model", ROD_MODELS, "rigid")
-        return Model(effects=frozenset(effects & set(EFFECTS)), piston=piston, series_harmonics=harmonics or 2, rod=rod)
+        negligible = DEFAULT_NEGLIGIBLE
+        if "negligible" in table:
+            negligible = self.quantity(table, "negligible", "model", "dimensionless", positive=True)
+            low, high = NEGLIGIBLE_RANGE
+            if math.isfinite(negligible) and not low <= negligible <= high:
+                self.fail("model.negligible", table["negligible"], f"must lie in [{low:g}, {high:g}] (a fraction of "
+                          f"one cylinder's share of the load scale; default {DEFAULT_NEGLIGIBLE:g})")
+            if not (math.isfinite(negligible) and low <= negligible <= high):
+                negligible = DEFAULT_NEGLIGIBLE
+        return Model(effects=frozenset(effects & set(EFFECTS)), piston=piston, series_harmonics=harmonics or 2, rod=rod,
+                     negligible=negligible)
 
     def sampling(self, table: Mapping) -> Sampling:
         max_order = self.integer(table, "max_order", "sampling", DEFAULT_MAX_ORDER, minimum=1)

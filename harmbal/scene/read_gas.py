@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,8 +26,19 @@ _FLYWHEEL_KEYS = {"inertia", "load_torque", "target_coefficient", "mean"}
 _TRACE_KEYS = {"angle", "pressure", "file", "units", "interpolation"}
 _COMBUSTION_KEYS = {"compression_ratio", "intake_pressure", "exhaust_pressure", "compression_exponent",
                     "expansion_exponent", "start", "duration", "shape", "efficiency", "peak_pressure", "imep"}
-#: The units a trace's columns may be given in (the fast unit parser reads all of them without pint).
+#: The units a trace's columns may be given in (the fast unit parser reads all of them without pint). Every
+#: column must declare one (docs/design.md §6): plain numbers in a table are never taken as SI.
 TRACE_UNITS = {"angle": ("deg", "rad"), "pressure": ("Pa", "kPa", "MPa", "bar", "mbar")}
+#: The columns of a trace, in order, and the unit the messages asking for one name as the example.
+_COLUMNS = ("angle", "pressure")
+_EXAMPLE_UNITS = {"angle": "deg", "pressure": "bar"}
+#: Peak pressures [Pa, absolute] no engine's cylinder reaches: a trace peaking below 1 bar (a cylinder that
+#: compresses its charge exceeds it even motored at closed throttle) or above 500 bar = 50 MPa (production
+#: engines peak below about 300 bar) is refused, as is one lying wholly at or below the crankcase pressure.
+MIN_PEAK_PRESSURE, MAX_PEAK_PRESSURE = 1e5, 5e7
+#: Peak pressures [Pa] outside this range are possible but unusual (a motored engine reaches about 3 bar and
+#: more; the most highly loaded diesels about 300 bar): the trace reads, with a TraceWarning to check its unit.
+LOW_PEAK_PRESSURE, HIGH_PEAK_PRESSURE = 3e5, 3.5e7
 #: A trace is one table of samples: fewer points cannot describe a pressure cycle.
 MIN_TRACE_POINTS = 8
 #: Largest gap closing the cycle, in units of the largest spacing inside the table.
@@ -38,6 +50,29 @@ _ENDPOINT_RTOL = 1e-9
 #: Alternative sources of a measured table: a cylinder's override giving one drops the shared other.
 _TABLE_SOURCES = ({"file"}, {"angle", "pressure"})
 _HEADER_UNITS = re.compile(r"^\s*([A-Za-z_ ]*?)\s*[\[(]\s*([^\])]+?)\s*[\])]\s*$")
+
+
+class TraceWarning(UserWarning):
+    """A measured pressure trace that reads, but whose peak is unusual for an
+    engine's cylinder: most often a column in another unit than declared."""
+
+
+@dataclass(frozen=True)
+class _Columns:
+    """A trace table as read, before conversion: the numbers of each column,
+    their units (dimension -> unit), where they came from (``source``: the
+    file path or ``"inline"``; ``key``: the file's key path, None inline), how
+    messages name each column and how to change its unit (a template with
+    ``{unit}``); ``written``: the file's name as the scene wrote it."""
+
+    angle: list
+    pressure: list
+    source: str
+    key: str | None
+    units: dict[str, str]
+    names: dict[str, str]
+    fixes: dict[str, str]
+    written: str = "inline"
 
 
 class GasTables:
@@ -117,7 +152,8 @@ class GasTables:
         # Problems of the sub-table as a whole go where the cylinder wrote it, or to the shared one.
         section = next((w for w in where[key].values() if not w.startswith("gas.")), f"gas.{key}")
         if key == "trace":
-            trace = self.trace(table["trace"], where["trace"], section, cycle)
+            crankcase_key = _join(where.get("crankcase_pressure", "gas"), "crankcase_pressure")
+            trace = self.trace(table["trace"], where["trace"], section, cycle, (crankcase, crankcase_key))
         else:
             trace = self.combustion(table["combustion"], where["combustion"], section, cycle)
         if trace is None or not (math.isfinite(bore) and math.isfinite(crankcase)):
@@ -132,8 +168,10 @@ class GasTables:
 
     # -- measured traces ---------------------------------------------------
 
-    def trace(self, table: dict, where: dict[str, str], section: str, cycle: int) -> PressureTrace | None:
-        """A measured trace; ``where`` gives the section each key was written in."""
+    def trace(self, table: dict, where: dict[str, str], section: str, cycle: int,
+              crankcase: tuple[float, str]) -> PressureTrace | None:
+        """A measured trace; ``where`` gives the section each key was written in,
+        ``crankcase`` the crankcase pressure [Pa] (nan if invalid) and its key path."""
 
         def at(key: str) -> str:
             return _join(where.get(key, section), key)
@@ -152,52 +190,55 @@ class GasTables:
             self.fail(section, sorted(table) if table else _MISSING,
                       "give the trace either as a file or as angle and pressure lists, exactly one of them")
             return None
-        if has_file:
-            key = at("file")
-            read = self.trace_file(table["file"], key, units)
-            if read is None:
-                return None
-            angle, pressure, source, found = read
-            factors = self.unit_factors(found, at("units") if units else key)
-        else:
-            angle, pressure, source, key = table.get("angle", _MISSING), table.get("pressure", _MISSING), "inline", None
-            for name, values in (("angle", angle), ("pressure", pressure)):
-                if values is _MISSING:
-                    self.fail(at(name), _MISSING, "missing: a trace needs both angle and pressure lists")
-                    return None
-                if (not isinstance(values, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                                                        for v in values)):
-                    self.fail(at(name), values, "must be a list of numbers (units in trace.units)")
-                    return None
-            factors = self.unit_factors(dict(units), at("units"))
-        if factors is None:
+        columns = self.trace_file(table["file"], at, units) if has_file else self.trace_inline(table, at, units)
+        if columns is None:
             return None
-        if len(angle) != len(pressure):
-            self.fail(key or at("pressure"), f"{len(angle)} angles, {len(pressure)} pressures",
+        if len(columns.angle) != len(columns.pressure):
+            self.fail(columns.key or at("pressure"), f"{len(columns.angle)} angles, {len(columns.pressure)} pressures",
                       "angle and pressure must have the same length")
             return None
-        checked = self.check_table(np.asarray(angle, float) * factors[0], np.asarray(pressure, float) * factors[1],
-                                   cycle, key, at)
-        if checked is None:
+        factors = [to_si(f"1 {columns.units[d]}", d) for d in _COLUMNS]
+        checked = self.check_table(np.asarray(columns.angle, float) * factors[0],
+                                   np.asarray(columns.pressure, float) * factors[1], cycle, columns, at)
+        if checked is None or not self.check_level(checked[1], crankcase, columns, at):
             return None
         return PressureTrace(angle=tuple(checked[0].tolist()), pressure=tuple(checked[1].tolist()),
-                             interpolation=interpolation, source=source)
+                             interpolation=interpolation, source=columns.source)
 
-    def unit_factors(self, units: Mapping, key: str) -> tuple[float, float] | None:
-        """SI factors of the angle and pressure units (plain numbers are SI: rad and Pa)."""
-        factors = []
-        for dimension, default in (("angle", "rad"), ("pressure", "Pa")):
-            unit = units.get(dimension, default)
-            if unit not in TRACE_UNITS[dimension]:
-                self.fail(_join(key, dimension) if not key.endswith(".file") else key, unit,
-                          f"unknown units for {dimension}; allowed: {', '.join(TRACE_UNITS[dimension])}")
+    def trace_inline(self, table: Mapping, at, units: Mapping) -> _Columns | None:
+        """The inline ``angle`` and ``pressure`` lists with their units from
+        ``units``, which must name both: a bare list of numbers is refused."""
+        lists = {}
+        for name in _COLUMNS:
+            values = table.get(name, _MISSING)
+            if values is _MISSING:
+                self.fail(at(name), _MISSING, "missing: a trace needs both angle and pressure lists")
                 return None
-            factors.append(to_si(f"1 {unit}", dimension))
-        return factors[0], factors[1]
+            if (not isinstance(values, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                                                    for v in values)):
+                self.fail(at(name), values, "must be a list of numbers (units in trace.units)")
+                return None
+            lists[name] = values
+        found = {}
+        for name in _COLUMNS:
+            if name not in units:
+                self.fail(at(name), f"{len(lists[name])} numbers",
+                          f"no unit: {_units_fix(at('units'), name)}{_which_units(name)}")
+            elif _unknown_unit(name, units[name]):
+                self.fail(_join(at("units"), name), units[name], _unknown_unit(name, units[name]))
+            else:
+                found[name] = units[name]
+        if len(found) < len(_COLUMNS):
+            return None
+        return _Columns(lists["angle"], lists["pressure"], "inline", None, found,
+                        names={n: f"the {n} list" for n in _COLUMNS},
+                        fixes={n: f"set {_join(at('units'), n)} = \"{{unit}}\"" for n in _COLUMNS})
 
-    def trace_file(self, name: Any, key: str, units: Mapping) -> tuple[list, list, str, dict] | None:
-        """Angles, pressures (in the file's units), the resolved path and the
-        units (the header's, or ``units`` where the header has none)."""
+    def trace_file(self, name: Any, at, units: Mapping) -> _Columns | None:
+        """The two columns of a CSV trace with their units, each from the
+        header (``angle [deg]``) or else from ``units``; a column with neither
+        is refused."""
+        key = at("file")
         if not isinstance(name, str):
             self.fail(key, name, "must be a path (a string)")
             return None
@@ -228,41 +269,71 @@ class GasTables:
                 return None
             angle.append(values[0])
             pressure.append(values[1])
-        found = dict(units)
-        if header is not None:
-            for dimension, cell in zip(("angle", "pressure"), header):
-                match = _HEADER_UNITS.match(cell)
-                if match:
-                    if dimension in units and units[dimension] != match.group(2):
-                        self.fail(key, name, f"the header of {path} gives {dimension} in {match.group(2)!r} but "
-                                  f"trace.units says {units[dimension]!r}")
-                        return None
-                    found[dimension] = match.group(2)
-        return angle, pressure, str(path), found
+        return self.file_units(angle, pressure, header, (name, str(path)), at, units)
 
-    def check_table(self, angle: np.ndarray, pressure: np.ndarray, cycle: int, key: str | None,
+    def file_units(self, angle: list, pressure: list, header: list[str] | None, name: tuple[str, str], at,
+                   units: Mapping) -> _Columns | None:
+        """The columns of a file (``name``: as written, resolved) with the unit
+        of each: from its header cell or, where the cell names none, from
+        ``units`` (the two must agree). None after a problem."""
+        cells = list(header or []) + [""] * len(_COLUMNS)
+        read = [self.column_unit(i, cells[i], header is not None, name, at, units) for i in range(len(_COLUMNS))]
+        if any(r is None for r in read):
+            return None
+        units, names, fixes = ({d: r[j] for d, r in zip(_COLUMNS, read)} for j in range(3))  # (unit, name, fix)
+        return _Columns(angle, pressure, name[1], at("file"), units, names, fixes, written=name[0])
+
+    def column_unit(self, index: int, cell: str, has_header: bool, name: tuple[str, str], at,
+                    units: Mapping) -> tuple[str, str, str] | None:
+        """The unit of a file's column ``index`` (header ``cell``), how
+        messages name the column and how to change its unit; None after a
+        problem (no unit, an unknown one, or header and ``units`` disagreeing)."""
+        dimension, (written, path), key = _COLUMNS[index], name, at("file")
+        label = f"{path}, column {index + 1} " + (f"{cell!r}" if cell else f"({dimension}, no header)")
+        units_key = _join(at("units"), dimension)
+        match, given = _HEADER_UNITS.match(cell), units.get(dimension)
+        if match:
+            unit, bad = match.group(2), _unknown_unit(dimension, match.group(2))
+            if given is not None and given != unit:
+                bad = f"the header gives {dimension} in {unit!r} but {units_key} says {given!r}"
+            fix = f"write its header as \"{match.group(1) or dimension} [{{unit}}]\""
+        elif given is not None:
+            unit, bad, fix = given, _unknown_unit(dimension, given), f"set {units_key} = \"{{unit}}\""
+            if bad:
+                self.fail(units_key, given, bad)
+                return None
+        else:
+            bad = (f"no unit: {_header_fix(cell or dimension, dimension, has_header)} or "
+                   f"{_units_fix(at('units'), dimension)}{_which_units(dimension)}")
+        if bad:
+            self.fail(key, written, f"{label}: {bad}")
+            return None
+        return unit, label, fix
+
+    def check_table(self, angle: np.ndarray, pressure: np.ndarray, cycle: int, columns: _Columns,
                     at) -> tuple[np.ndarray, np.ndarray] | None:
         """The table in SI checked to describe one cycle, without the closing
-        endpoint if it was given. ``key`` names the file, if any; else the
-        problems go to the angle or pressure list."""
+        endpoint if it was given. The problems of a file go to its key, naming
+        the file; else to the angle or pressure list."""
         period = math.pi * cycle
         cycle_text = f"{180 * cycle}°"
-        akey, pkey = key or at("angle"), key or at("pressure")
+        akey, pkey = columns.key or at("angle"), columns.key or at("pressure")
+        where = f"{columns.source}: " if columns.key else ""
         if angle.size < MIN_TRACE_POINTS:
-            self.fail(akey, f"{angle.size} points", f"a trace needs at least {MIN_TRACE_POINTS} points")
+            self.fail(akey, f"{angle.size} points", f"{where}a trace needs at least {MIN_TRACE_POINTS} points")
             return None
         if not (np.isfinite(angle).all() and np.isfinite(pressure).all()):
-            self.fail(akey, "nan or inf", "must be finite")
+            self.fail(akey, "nan or inf", f"{where}must be finite")
             return None
         steps = np.diff(angle)
         if not (steps > 0).all():
             i = int(np.argmax(steps <= 0))
             self.fail(akey, f"{math.degrees(angle[i]):.6g}°, {math.degrees(angle[i + 1]):.6g}° (points {i + 1}, "
-                      f"{i + 2})", "angles must be strictly increasing")
+                      f"{i + 2})", f"{where}angles must be strictly increasing")
             return None
         if not (pressure > 0).all():
             i = int(np.argmax(~(pressure > 0)))
-            self.fail(pkey, f"{pressure[i]:.6g} Pa at point {i + 1}", "absolute pressures must be positive")
+            self.fail(pkey, f"{pressure[i]:.6g} Pa at point {i + 1}", f"{where}absolute pressures must be positive")
             return None
         span = angle[-1] - angle[0]
         largest = float(steps.max())
@@ -271,23 +342,51 @@ class GasTables:
             if abs(pressure[-1] - pressure[0]) > PERIODIC_RTOL * max(abs(pressure[0]), abs(pressure[-1])):
                 self.fail(pkey, f"{pressure[0]:.9g} Pa at {math.degrees(angle[0]):.6g}°, {pressure[-1]:.9g} Pa at "
                           f"{math.degrees(angle[-1]):.6g}°",
-                          f"not periodic: the two ends of the {cycle_text} cycle differ by more than "
+                          f"{where}not periodic: the two ends of the {cycle_text} cycle differ by more than "
                           f"{PERIODIC_RTOL:g} relative")
                 return None
             return angle[:-1], pressure[:-1]
+        extent = f"{math.degrees(angle[0]):.6g}° to {math.degrees(angle[-1]):.6g}°"
         if span > period:
-            self.fail(akey, f"{math.degrees(angle[0]):.6g}° to {math.degrees(angle[-1]):.6g}°",
-                      f"trace longer than a cycle: it spans {math.degrees(span):.6g}°, one cycle is {cycle_text} "
-                      "(angles without units are radians)")
+            self.fail(akey, extent, f"{where}trace longer than a cycle: it spans {math.degrees(span):.6g}°, one "
+                      f"cycle is {cycle_text} (angles read in {columns.units['angle']}){_cycle_hint(span, largest, 4)}")
             return None
         gap = period - span
         if gap > MAX_CLOSING_GAP * largest:
-            self.fail(akey, f"{math.degrees(angle[0]):.6g}° to {math.degrees(angle[-1]):.6g}°",
-                      f"trace shorter than a cycle: the gap closing the {cycle_text} cycle is "
+            self.fail(akey, extent, f"{where}trace shorter than a cycle: the gap closing the {cycle_text} cycle is "
                       f"{math.degrees(gap):.6g}°, more than {MAX_CLOSING_GAP:g} x the largest spacing "
-                      f"({math.degrees(largest):.6g}°)")
+                      f"({math.degrees(largest):.6g}°){_cycle_hint(span, largest, 2)}")
             return None
         return angle, pressure
+
+    def check_level(self, pressure: np.ndarray, crankcase: tuple[float, str], columns: _Columns, at) -> bool:
+        """Whether the level of a trace [Pa] can be a cylinder pressure: its
+        peak above the crankcase pressure and within [MIN_PEAK_PRESSURE,
+        MAX_PEAK_PRESSURE] (else a problem), and within [LOW_PEAK_PRESSURE,
+        HIGH_PEAK_PRESSURE] (else a :class:`TraceWarning`). Most often a
+        trace failing it is in another unit than the one declared."""
+        peak, unit = float(pressure.max()), columns.units["pressure"]
+        raw = peak / to_si(f"1 {unit}", "pressure")
+        key, name = columns.key or at("pressure"), columns.names["pressure"]
+        likely = _likely_unit(raw, unit, crankcase[0], columns.fixes["pressure"])
+        shown = f"{_bar(peak)} bar" + (f" ({raw:.6g} {unit})" if unit != "bar" else "")
+        rule = _level_problem(peak, crankcase, shown)
+        if rule is None:
+            if not LOW_PEAK_PRESSURE <= peak <= HIGH_PEAK_PRESSURE:
+                self.warn(TraceWarning(
+                    f"{self.source}: {key}: {name} peaks at {shown}, unusual for an engine (most peak between "
+                    f"{_bar(LOW_PEAK_PRESSURE)} and {_bar(HIGH_PEAK_PRESSURE)} bar): check its unit{likely}"))
+            return True
+        value = columns.written if columns.key else f"maximum {raw:.6g} {unit}"
+        self.fail(key, value, f"{name}: {rule}; the pressure unit is likely wrong"
+                  f"{likely or ': check the unit its numbers are in, and that they are absolute pressures'}")
+        return False
+
+    def warn(self, warning: Warning) -> None:
+        """Keep a warning for when the scene is valid, once (a shared trace is read per cylinder).
+        A Warning instance keeps its own category when the reader passes it to ``warnings.warn``."""
+        if str(warning) not in map(str, self.warnings):
+            self.warnings.append(warning)
 
     # -- parametric traces -------------------------------------------------
 
@@ -336,6 +435,77 @@ class GasTables:
         return Combustion(compression_ratio=ratio, intake_pressure=intake, exhaust_pressure=exhaust,
                           compression_exponent=exponents[0], expansion_exponent=exponents[1], start=start,
                           duration=duration, shape=shape, efficiency=efficiency, peak_pressure=peak, imep=imep)
+
+
+def _unknown_unit(dimension: str, unit: Any) -> str | None:
+    """Why ``unit`` cannot be the unit of a trace's ``dimension`` column, or None if it can."""
+    if unit in TRACE_UNITS[dimension]:
+        return None
+    return f"unknown units {unit!r} for {dimension}; allowed: {', '.join(TRACE_UNITS[dimension])}"
+
+
+def _units_fix(units_key: str, dimension: str) -> str:
+    """How to give a column's unit in the trace's ``units`` table."""
+    return f"set {_join(units_key, dimension)} = \"{_EXAMPLE_UNITS[dimension]}\""
+
+
+def _header_fix(label: str, dimension: str, has_header: bool) -> str:
+    """How to give a column's unit in a CSV file's header."""
+    if has_header:
+        return f"write its header as \"{label} [{_EXAMPLE_UNITS[dimension]}]\""
+    return "start the file with a header line such as \"angle [deg],pressure [bar]\""
+
+
+def _which_units(dimension: str) -> str:
+    """The end of a message asking for a column's unit: which units it may be."""
+    return f", with the unit its numbers are in (one of {', '.join(TRACE_UNITS[dimension])})"
+
+
+def _cycle_hint(span: float, largest: float, cycle: int) -> str:
+    """A hint to set ``engine.cycle`` when a table refused for the scene's
+    cycle describes exactly one cycle of the other (``cycle``) stroke count."""
+    period = math.pi * cycle
+    if abs(span - period) <= _ENDPOINT_RTOL * largest or 0 < period - span <= MAX_CLOSING_GAP * largest:
+        kind = "one revolution (360°)" if cycle == 2 else "two revolutions (720°)"
+        engine = "a two-stroke" if cycle == 2 else "a four-stroke (the default)"
+        return f"; the table covers {kind}: if the engine is {engine}, set engine.cycle = {cycle}"
+    return ""
+
+
+def _level_problem(peak: float, crankcase: tuple[float, str], shown: str) -> str | None:
+    """Why a trace peaking at ``peak`` [Pa] (``shown`` as text) cannot be a
+    cylinder pressure over a crankcase at ``crankcase`` ([Pa], its key path),
+    or None if it can."""
+    if peak <= crankcase[0]:
+        return (f"the whole trace lies at or below the crankcase pressure ({_bar(crankcase[0])} bar, {crankcase[1]}): "
+                f"its maximum is {shown}, so the gas would never push the piston")
+    if peak < MIN_PEAK_PRESSURE:
+        return (f"it peaks at {shown}, below {_bar(MIN_PEAK_PRESSURE)} bar absolute, which every cylinder that "
+                "compresses its charge exceeds")
+    if peak > MAX_PEAK_PRESSURE:
+        return (f"it peaks at {shown}, above {_bar(MAX_PEAK_PRESSURE)} bar, which no engine's cylinder reaches "
+                "(production engines peak below about 300 bar)")
+    return None
+
+
+def _likely_unit(raw_peak: float, unit: str, crankcase: float, fix: str) -> str:
+    """The units in which a trace's numbers (peaking at ``raw_peak`` in
+    ``unit``) would peak at an ordinary cylinder pressure, above the crankcase
+    pressure [Pa], and how to declare the likeliest of them (``fix``, a
+    template with ``{unit}``); "" if there is none."""
+    peaks = {u: raw_peak * to_si(f"1 {u}", "pressure") for u in TRACE_UNITS["pressure"] if u != unit}
+    plausible = [u for u, p in peaks.items() if LOW_PEAK_PRESSURE <= p <= HIGH_PEAK_PRESSURE and not p <= crankcase]
+    if not plausible:
+        return ""
+    # The likeliest: the peak nearest a typical 100 bar (on a log scale).
+    plausible.sort(key=lambda u: abs(math.log(peaks[u] / 1e7)))
+    read = "; ".join(f"in {u} it would peak at {_bar(peaks[u])} bar" for u in plausible)
+    return f" ({read}): if its numbers are in {plausible[0]}, {fix.format(unit=plausible[0])}"
+
+
+def _bar(pascal: float) -> str:
+    """A pressure [Pa] in bar, to 6 significant digits."""
+    return f"{pascal / 1e5:.6g}"
 
 
 def _numbers(cells: list[str]) -> list[float] | None:

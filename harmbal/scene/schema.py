@@ -32,6 +32,14 @@ ROTATIONS = ("clockwise", "counterclockwise")
 
 DEFAULT_ACCURACY = 1e-12
 DEFAULT_MAX_ORDER = 12
+#: Default level below which a load component is *negligible*: this fraction of one cylinder's share of the
+#: load scale (the sum of the single bodies' peak loads divided by the number of cylinders). One cylinder's
+#: load scale is about 2.5× its first-order reciprocating force, so 1e-3 of it is ≈ 0.25 % of that force:
+#: less than the scatter of the first-order force from engine to engine that piston weight classes allow.
+#: docs/conventions.md, "Zero, negligible, free".
+DEFAULT_NEGLIGIBLE = 1e-3
+#: The values ``[model] negligible`` may take (below 1e-12 it would only relabel round-off).
+NEGLIGIBLE_RANGE = (1e-12, 0.1)
 #: Most samples per revolution the accuracy setting chooses (harmbal.model.sampling); what the
 #: scene asks for must be resolvable within it.
 MAX_SAMPLES = 1 << 16
@@ -239,6 +247,8 @@ class Model:
     piston: str = "exact"
     series_harmonics: int = 2
     rod: str = "rigid"
+    #: Components at or below this fraction of one cylinder's share of the load scale are negligible.
+    negligible: float = DEFAULT_NEGLIGIBLE
 
 
 @dataclass(frozen=True)
@@ -286,6 +296,14 @@ class Scene:
     loads: LoadsRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
+
+    def with_negligible(self, negligible: float) -> "Scene":
+        """The same scene judging components at or below ``negligible`` × one
+        cylinder's share of the load scale negligible (``[model] negligible``)."""
+        value = float(negligible)
+        if not NEGLIGIBLE_RANGE[0] <= value <= NEGLIGIBLE_RANGE[1]:
+            raise ValueError(f"negligible must lie in [{NEGLIGIBLE_RANGE[0]:g}, {NEGLIGIBLE_RANGE[1]:g}]: {value!r}")
+        return replace(self, model=replace(self.model, negligible=value))
 
     def with_effects(self, effects: set[str] | frozenset[str]) -> "Scene":
         """The same scene simulating only those of its effects in ``effects``."""

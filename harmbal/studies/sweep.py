@@ -24,6 +24,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -33,8 +34,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..labelled import CONVENTIONS, Speeds, dataset, variable
+from ..model.evaluate import evaluate
 from ..orders.linear import LinearPhasors, combine, geometry_key, linear_phasors, peaks, slot_values, time_basis
-from ..orders.spectrum import ROTATION
+from ..orders.spectrum import ROTATION, ZERO_RTOL, negligible_level
 from ..scene import Scene, SceneError, load_scene
 from ..scene.schema import _MISSING, Problem
 from ..scene.units import SI_UNITS, QuantityError, to_si
@@ -44,12 +46,26 @@ if TYPE_CHECKING:
 
 MODES = ("grid", "zip")
 
-#: Units of the SI values of the scene keys a sweep is most often over, by the key's last name.
-_KEY_UNITS = {
-    "crank_radius": "m", "rod_length": "m", "pin_offset": "m", "cylinder_offset": "m", "axial_position": "m",
-    "cg_from_big_end": "m", "cg_offset": "m", "radius": "m", "axial_offset": "m", "mass": "kg",
-    "mass_big_end": "kg", "mass_small_end": "kg", "inertia": "kg m^2", "unbalance": "kg m", "throw": "rad",
-    "bank": "rad", "angle": "rad",
+#: The dimension (a key of :data:`~harmbal.scene.units.SI_UNITS`) of every numeric scene key, by the key's
+#: last name, as the scene reader reads it (docs/scenes.md; a test checks it against the reader's source).
+#: A plain number given for a key is in the SI unit of its dimension.
+KEY_DIMENSIONS = {
+    **dict.fromkeys(("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "axial_position", "axial_offset",
+                     "cg_from_big_end", "cg_offset", "radius", "pin_radius", "coupler_length", "rocker_length",
+                     "height", "heights", "lateral", "planes", "thickness", "width", "reference_point", "centre",
+                     "cg", "pivot", "bearings", "axial_range", "main_bearings", "vertices", "bore"), "length"),
+    **dict.fromkeys(("mass", "mass_big_end", "mass_small_end"), "mass"),
+    **dict.fromkeys(("throw", "bank", "angle", "phase", "couple_angle", "direction", "half_angle", "pin_angle",
+                     "start_angle", "end_angle", "start", "duration"), "angle"),
+    **dict.fromkeys(("inertia", "couple", "xy", "xz"), "inertia"),
+    **dict.fromkeys(("unbalance", "max_unbalance"), "unbalance"),
+    **dict.fromkeys(("balance_factor", "negligible", "accuracy", "target_coefficient", "tolerance",
+                     "compression_ratio", "compression_exponent", "expansion_exponent", "shape", "efficiency"),
+                    "dimensionless"),
+    **dict.fromkeys(("speed", "from", "to", "max_speed"), "speed"),
+    **dict.fromkeys(("intake_pressure", "exhaust_pressure", "crankcase_pressure", "peak_pressure", "imep"),
+                    "pressure"),
+    "force": "force", "load_torque": "moment", "time": "time", "density": "density",
 }
 
 #: Variants whose peaks are rebuilt at a time (bounds the memory of the time-domain blocks).
@@ -181,18 +197,30 @@ def _get(raw: dict, key: str) -> Any:
 
 
 def _si(value: Any) -> tuple[float, str | None]:
-    """A plain number (SI) or a unit string as an SI float and its units (None if unknown)."""
+    """A plain number (SI) or a unit string as an SI float and its dimension
+    (a key of :data:`~harmbal.scene.units.SI_UNITS`; None for a plain number)."""
     if isinstance(value, Real) and not isinstance(value, bool):
         return float(value), None
     if isinstance(value, str):
-        for dimension, units in SI_UNITS.items():
+        for dimension in SI_UNITS:
             if dimension == "dimensionless":
                 continue
             try:
-                return to_si(value, dimension), units
+                return to_si(value, dimension), dimension
             except QuantityError:
                 continue
     raise QuantityError(f"not a number or a quantity with units: {value!r}")
+
+
+#: A quantity string: a number as the scene reader reads it, then its units.
+_QUANTITY = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*(.*?)\s*")
+
+
+def typed_units(value: Any) -> str | None:
+    """The units a quantity string is written in (``"mm"`` of ``"128 mm"``),
+    or None for a plain number (SI)."""
+    match = _QUANTITY.fullmatch(value) if isinstance(value, str) else None
+    return (match[1] or None) if match else None
 
 
 def quantity_value(value: Any) -> tuple[float, str | None]:
@@ -209,10 +237,47 @@ def quantity_value(value: Any) -> tuple[float, str | None]:
             value = float(value)
         except ValueError:
             pass
-    si, units = _si(value)
+    si, dimension = _si(value)
     if not math.isfinite(si):
         raise QuantityError(f"not finite: {value!r}")
-    return si, units
+    return si, None if dimension is None else SI_UNITS[dimension]
+
+
+def key_units(key: str, typed: set[str | None] = frozenset({None})) -> tuple[str | None, str | None]:
+    """The SI units of ``key``'s values (CF ``units``; ``"1"`` for a
+    dimensionless key) and the units to show them in: the units the values
+    were typed in if they were all typed in one, else the SI units (plain
+    numbers are SI, as documented for each key in docs/scenes.md).
+
+    Parameters
+    ----------
+    key : str
+        A key path (``geometry.rod_length``); its dimension is
+        :data:`KEY_DIMENSIONS` of its last name, or, for a key not there,
+        that of the units typed.
+    typed : set of str or None
+        The units each value was typed in (:func:`typed_units`; None for a
+        plain number).
+
+    Returns
+    -------
+    tuple of (str or None, str or None)
+        None, None if the key's dimension is unknown.
+    """
+    dimension = KEY_DIMENSIONS.get(_parse_path("", key)[-1][0])
+    if dimension is None:
+        found = {_si(f"1 {units}")[1] for units in typed if units is not None}
+        dimension = found.pop() if len(found) == 1 else None
+    if dimension is None:
+        return None, None
+    si_units = SI_UNITS[dimension] or "1"
+    return si_units, next(iter(typed)) if len(typed) == 1 and None not in typed else si_units
+
+
+def display_factor(units: str | None) -> float:
+    """SI value of one of ``units`` (1 for None or ``"1"``): a value in SI
+    divided by it is in ``units``."""
+    return 1.0 if units in (None, "", "1") else quantity_value(f"1 {units}")[0]
 
 
 def _si_strict(key: str, value: Any) -> float:
@@ -242,9 +307,9 @@ def _toml_value(value: Any) -> Any:
 class _Reader:
     """Reads variants of one scene through the scene reader, naming the scene's file in errors.
 
-    The variants keep the given scene's speeds (a scene from ``with_speeds`` sweeps at its own speeds);
-    any other difference between the scene and its source text is refused, since the variants are
-    read from that text."""
+    The variants keep the given scene's speeds (a scene from ``with_speeds`` sweeps at its own speeds,
+    one from ``with_negligible`` is judged by its own level); any other difference between the scene and
+    its source text is refused, since the variants are read from that text."""
 
     def __init__(self, scene: Scene):
         if not scene.source_text:
@@ -254,7 +319,9 @@ class _Reader:
         self.raw = tomllib.loads(scene.source_text)
         self.cache: dict[tuple, Scene] = {}
         self.file = self._load(self.raw)
-        if geometry_key(replace(self.file, speeds=scene.speeds)) != geometry_key(scene) or \
+        # Neither the speeds nor the negligible level change the loads per unit speed (with_speeds, with_negligible).
+        model = replace(self.file.model, negligible=scene.model.negligible)
+        if geometry_key(replace(self.file, speeds=scene.speeds, model=model)) != geometry_key(scene) or \
                 not np.array_equal(slot_values(self.file)[1], slot_values(scene)[1]):
             raise _fail(scene.source, "(scene)", None, "the scene differs from its source text (changed after it "
                         "was read): write the change into the scene file to sweep it")
@@ -376,7 +443,7 @@ class _Plan:
 
     keys: tuple[str, ...]
     si: dict[str, np.ndarray]            # SI value of each of a key's values
-    units: dict[str, str | None]
+    units: dict[str, tuple[str | None, str | None]]  # SI units and the units to show the values in
     linear: dict[str, dict[int, float]]  # linear key -> {slot: slot value per SI unit of the key}
     geometry: tuple[str, ...]
     variants: _Variants
@@ -402,36 +469,37 @@ class _Plan:
         return group, slots, coords
 
 
-def _si_values(source: str, key: str, vals) -> tuple[np.ndarray, str | None]:
-    """A key's values in SI and their units (None for plain numbers); a numeric
-    array (Monte Carlo draws) is taken as SI without a loop over its items."""
+def _si_values(source: str, key: str, vals) -> tuple[np.ndarray, set[str | None]]:
+    """A key's values in SI and the units they were typed in (None for a
+    plain number, :func:`typed_units`); a numeric array (Monte Carlo draws)
+    is taken as SI without a loop over its items."""
     if isinstance(vals, np.ndarray) and vals.dtype.kind in "iuf":
         si = vals.astype(float)
         bad = np.flatnonzero(~np.isfinite(si))
         if bad.size:
             raise _fail(source, key, vals[bad[0]], "must be finite")
-        return si, None
-    converted, units = [], None
+        return si, {None}
+    converted = []
     for v in vals:
         try:
-            value, unit = _si(v)
+            value = _si(v)[0]
         except QuantityError as exc:
             raise _fail(source, key, v, str(exc)) from None
         if not math.isfinite(value):
             raise _fail(source, key, v, "must be finite")
         converted.append(value)
-        units = units or unit
-    return np.array(converted), units
+    return np.array(converted), {typed_units(v) for v in vals}
 
 
 def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backend: str,
           progress: Callable[[int, int], None] | None = None, geometry_keys: frozenset = frozenset(),
-          design: bool = False) -> _Plan:
+          design: bool = False, typed: Mapping[str, set] | None = None) -> _Plan:
     """Sort the keys, read each distinct geometry once and keep what every
     block of variants needs (``values``: each key's values; ``variants``:
     which of them each variant takes; ``geometry_keys``: keys to treat as
     geometry whatever they move; ``design``: also each geometry's design
-    as maps of its slot values)."""
+    as maps of its slot values; ``typed``: the units each key's values were
+    typed in, if not in ``values`` themselves)."""
     reason = _unsupported(scene)
     if reason:
         raise _fail(scene.source, "(scene)", scene.name, reason)
@@ -443,8 +511,8 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
     si, units = {}, {}
     for key, vals in values.items():
         _parse_path(scene.source, key)
-        si[key], units[key] = _si_values(scene.source, key, vals)
-        units[key] = _KEY_UNITS.get(_parse_path(scene.source, key)[-1][0], units[key])
+        si[key], typed_here = _si_values(scene.source, key, vals)
+        units[key] = key_units(key, (typed or {}).get(key, typed_here))
 
     base_key = geometry_key(scene)
     names, base_slots = slot_values(scene)
@@ -478,7 +546,7 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
         # A geometry key that also moves a linear key's slot (a rod split and a rod mass): both are geometry.
         clash = {k for k, coefficients in linear.items() if any(slots_here[s] != base_slots[s] for s in coefficients)}
         if clash:
-            return _plan(scene, values, variants, backend, progress, geometry_keys | clash, design)
+            return _plan(scene, values, variants, backend, progress, geometry_keys | clash, design, typed)
         bases.append(linear_phasors(variant, backend=backend))
         if design:
             designs.append(_design_basis(variant, bases[-1], designs[0] if designs else None, geometry))
@@ -654,7 +722,7 @@ def _chunked(plan: _Plan, chunk: int, **options) -> dict:
         import dask
         import dask.array as da
     except ImportError:
-        raise ImportError("chunked sweeps need dask: pip install \"harmbal[dask]\"") from None
+        raise ImportError("chunked sweeps need dask: pip install dask distributed zarr (the extra harmbal[dask])") from None
     count = plan.variants.count
     template = _evaluate_block(plan, 0, 1, **options)
     shared = dask.delayed(plan, traverse=False)  # one copy of the bases in the graph, not one per chunk
@@ -697,6 +765,7 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
                 "units": units, "long_name": f"largest magnitude of the {name} vector over a revolution",
                 "description": f"maximum over {attrs['peak_samples']} angles of the orders 0..max_order "
                                "rebuilt from the phasors"})
+    data.update(_levels(scene, speeds))
     coords = {dim: variable((dim,), np.arange(plan.variants.count), {"long_name": f"{dim} number"})}
     if plan.designs:
         design = plan.designs[0]
@@ -706,7 +775,7 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
         data["design_unbalance_angle"] = variable((dim, "element"), _angle(unbalance), {
             "units": "rad", "long_name": "direction of the designed unbalance at theta = 0"})
         data["design_residual"] = var((dim, "design_order", "component"), arrays["design_residual"], {
-            "units": "N or N m (see component_units)", "long_name": "residual phasor the design predicts",
+            "units_by_component": "component_units", "long_name": "residual phasor the design predicts",
             "description": "harmbal.design's predicted; 0 where cancelled (round-off)"})
         data["design_cancelled"] = variable((dim, "design_order", "component"), arrays["design_cancelled"], {
             "long_name": "targeted component cancelled by the design"})
@@ -722,8 +791,9 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
         })
     for key in plan.keys:
         key_attrs = {"long_name": f"scene key {key}", "kind": "linear" if key in plan.linear else "geometry"}
-        if plan.units.get(key):
-            key_attrs["units"] = plan.units[key]
+        si_units, display_units = plan.units[key]
+        if si_units is not None:
+            key_attrs.update(units=si_units, display_units=display_units)
         coords[key] = variable((dim,), arrays[key], key_attrs)
     coords.update({
         "order": variable(("order",), orders, {"long_name": "order of crank speed", "units": "1"}),
@@ -733,12 +803,42 @@ def _dataset(scene: Scene, plan: _Plan, arrays: dict, orders: np.ndarray, dim: s
     if speeds.several:
         coords.update(speeds.coords())
     attrs = {
-        "conventions": CONVENTIONS, "engine": scene.name, "rotation": scene.rotation,
+        "harmbal_conventions": CONVENTIONS, "engine": scene.name, "rotation": scene.rotation,
         "speed_rad_s": list(scene.speeds), "max_order": scene.sampling.max_order,
         "linear_keys": list(plan.linear), "geometry_keys": list(plan.geometry), "geometries": len(plan.bases),
-        "samples_per_rev": sorted({b.samples_per_rev for b in plan.bases}), **attrs,
+        "samples_per_rev": sorted({b.samples_per_rev for b in plan.bases}), "zero_rtol": ZERO_RTOL,
+        "negligible": float(scene.model.negligible), "cylinders": len(scene.cylinders), "classes": _CLASSES_NOTE,
+        **attrs,
     }
     return dataset(data, coords, attrs)
+
+
+#: How a sweep's loads are classed (the ``classes`` attribute; docs/sweeps.md).
+_CLASSES_NOTE = ("zero (round-off): at most zero_rtol x nominal_<force|moment>_scale; negligible: at most "
+                 "<force|moment>_negligible_level; free: above it. Every variant is judged against the levels of the "
+                 "nominal scene (the scene swept), so that variants compare on one footing: "
+                 "harmbal.orders.spectrum.classify(amplitude, nominal_force_scale, force_negligible_level)")
+
+
+def _levels(scene: Scene, speeds: Speeds) -> dict:
+    """The nominal scene's load scales and negligible levels at the sweep's
+    speeds (inertial loads and their scales go with ω²)."""
+    def at_speeds(unit_value: float, attrs: dict):
+        if speeds.several:
+            return speeds.variable((), np.asarray(unit_value), attrs)
+        return variable((), np.asarray(float(speeds.w2) * unit_value), attrs)
+
+    unit = evaluate(scene)
+    data = {}
+    for name, units, scale in (("force", "N", unit.force_scale), ("moment", "N m", unit.moment_scale)):
+        data[f"nominal_{name}_scale"] = at_speeds(scale, {
+            "units": units, "long_name": f"sum of the single bodies' peak {name}s of the nominal scene (the scene "
+                                         "swept): the scale its zero class is judged by"})
+        level = float(negligible_level(scale, len(scene.cylinders), scene.model.negligible))
+        data[f"{name}_negligible_level"] = at_speeds(level, {
+            "units": units, "long_name": f"{name} amplitude at or below which a load is negligible: [model] "
+                                         "negligible x the nominal scale / cylinders"})
+    return data
 
 
 def _angle(values):
@@ -748,11 +848,11 @@ def _angle(values):
 
 def _run(scene: Scene, values: dict, variants: _Variants, orders, peaks: bool, peak_samples: int, backend: str,
          progress: Callable[[int, int], None] | None, phasors: bool, chunks: int | None, dim: str, attrs: dict,
-         design: bool = False):
+         design: bool = False, typed: Mapping[str, set] | None = None):
     kept = _orders(scene, orders)
     if chunks is not None and (isinstance(chunks, bool) or not isinstance(chunks, (int, np.integer)) or chunks < 1):
         raise ValueError(f"chunks must be a positive number of variants: {chunks!r}")
-    plan = _plan(scene, values, variants, backend, progress, design=design)
+    plan = _plan(scene, values, variants, backend, progress, design=design, typed=typed)
     speeds = Speeds(scene.speeds)
     options = {"orders": kept, "peak_samples": peak_samples if peaks else None,
                "w2": 1.0 if speeds.several else float(speeds.w2), "phasors": phasors}
@@ -853,7 +953,13 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
         rotation); real ``force_amplitude``/``moment_amplitude`` (variant,
         order), the peak of each order's vector over a revolution; with
         ``peaks``, ``peak_force``/``peak_moment`` (variant,). Each key is a
-        coordinate along ``variant`` (SI values). In grid mode
+        coordinate along ``variant`` (SI values, SI ``units``, and
+        ``display_units``: the units the values were typed in, or the SI
+        units for plain numbers). ``nominal_force_scale``,
+        ``nominal_moment_scale`` and ``force_negligible_level``,
+        ``moment_negligible_level`` are the swept scene's load scales and
+        negligible levels at its speed, by which every variant's loads are
+        classed (:func:`harmbal.orders.spectrum.classify`). In grid mode
         ``ds.set_index(variant=list(parameters)).unstack("variant")`` gives one
         dimension per key (attribute ``grid_shape``). With ``design``:
         ``design_unbalance`` [kg m] and ``design_unbalance_angle`` [rad]
@@ -862,7 +968,9 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
         :func:`harmbal.design`'s Dataset, and ``residual_force``,
         ``residual_moment`` (with their ``_rotating`` split and
         ``_amplitude``) as ``force`` and ``moment`` but with the designed
-        elements: what :func:`harmbal.verify` of the designed scene checks.
+        elements: what :func:`harmbal.verify` of the designed scene checks
+        (the moment with its roll about the crank axis, which [design]
+        targets only if its ``cancel`` lists ``roll``).
 
     Raises
     ------
@@ -941,7 +1049,7 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
         raise ValueError("give at least one toleranced key")
     rng = np.random.default_rng(seed)
     raw = tomllib.loads(scene.source_text) if scene.source_text else {}
-    values = {}
+    values, typed = {}, {}
     for key, dist in tolerances.items():
         if not isinstance(dist, (Normal, Uniform, WeightClasses)):
             raise TypeError(f"{key}: a Normal, Uniform or WeightClasses, not {type(dist).__name__}")
@@ -954,18 +1062,21 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
             raise _fail(scene.source, key, _MISSING, "not written in the scene: a tolerance is a deviation from "
                         "the nominal value, write the nominal in the scene file")
         try:
-            centre, units = (0.0, None) if nominal is None else _si(nominal)
+            centre, dimension = (0.0, None) if nominal is None else _si(nominal)
         except QuantityError as exc:
             raise _fail(scene.source, key, nominal, str(exc)) from None
         # A quantity with units of another dimension would be added as if it were SI: refuse it.
-        units = _KEY_UNITS.get(_parse_path(scene.source, key)[-1][0], units)
-        for value in (v for v in dist.quantities() if isinstance(v, str) and units is not None):
+        dimension = KEY_DIMENSIONS.get(_parse_path(scene.source, key)[-1][0], dimension)
+        strings = [v for v in dist.quantities() if isinstance(v, str)]
+        for value in (v for v in strings if dimension is not None):
             try:
                 given = _si(value)[1]
             except QuantityError as exc:
                 raise _fail(scene.source, key, value, str(exc)) from None
-            if given != units:
-                raise _fail(scene.source, key, value, f"is in {given}, the key in {units}")
+            if given != dimension:
+                raise _fail(scene.source, key, value, f"is in {SI_UNITS[given]}, the key in "
+                            f"{SI_UNITS[dimension] or '1 (dimensionless)'}")
+        typed[key] = {typed_units(v) for v in dist.quantities()}
         try:
             values[key] = dist.draw(rng, centre, int(n), key)
         except SceneError as exc:
@@ -974,7 +1085,7 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
              "samples": int(n), "seed": "none" if seed is None else str(seed),
              "tolerances": [f"{k}: {d!r}" for k, d in tolerances.items()]}
     ds = _run(scene, values, _Variants((int(n),) * len(values), "zip"), orders, peaks, peak_samples, backend,
-              progress, phasors, chunks, "sample", attrs, design)
+              progress, phasors, chunks, "sample", attrs, design, typed)
     return _summarise(ds, percentiles, force_limit, moment_limit)
 
 

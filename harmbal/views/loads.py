@@ -182,8 +182,8 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     attrs = attributes(scene, n)
     attrs.update({"title": f"harmbal loads: {scene.name}", "revolutions": revolutions,
                   "gas": "yes" if gas is not None else "no",
-                  "conventions": "constant crank speed; forces in the named frames (see each variable); "
-                                 "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); docs/loads.md"})
+                  "harmbal_conventions": "constant crank speed; forces in the named frames (see each variable); "
+                                         "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); docs/loads.md"})
     return dataset(data, coords, attrs)
 
 
@@ -240,10 +240,10 @@ def _elements(request: LoadsRequest, shafts, sense: int, theta: np.ndarray, spee
             torque, power = np.array([ramp_torque(e.inertia, abs(s.ratio) * ramp.alpha, abs(s.ratio) * ramp.end)
                                       if e.inertia is not None else (nan, nan) for s, e in rows]).T
             data["inertia"] = (("element",), np.array([nan if e.inertia is None else e.inertia for _, e in rows]),
-                               {"units": "kg m2", "long_name": "moment of inertia about the shaft's axis"})
+                               {"units": "kg m^2", "long_name": "moment of inertia about the shaft's axis"})
             data["ramp_torque"] = (("element",), torque, {
                 "units": "N m", "long_name": "drive torque of the speed ramp on the shaft, I·|n|·α",
                 "ramp": f"{ramp.start * 30 / np.pi:.6g} -> {ramp.end * 30 / np.pi:.6g} rpm in {ramp.time:.6g} s"})
             data["ramp_power"] = (("element",), power, {"units": "W", "long_name": "power at the ramp's end speed"})
-            data["ramp_alpha"] = ((), ramp.alpha, {"units": "rad/s2", "long_name": "crank angular acceleration"})
+            data["ramp_alpha"] = ((), ramp.alpha, {"units": "rad/s^2", "long_name": "crank angular acceleration"})
     return data

@@ -8,7 +8,9 @@ from ..labelled import SPEED_SCALING, Speeds, dataset, speed_independent_values,
 from ..model.sampling import AccuracyWarning
 from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
-from ..orders.spectrum import BALANCED_RTOL, ROTATION, aliasing_estimate, phasors, rotating_split
+from ..orders.spectrum import (BALANCED_RTOL, CLASS_ATTRS, ROTATION, ZERO_RTOL, aliasing_estimate, classify,
+                               negligible_level, phasors, rotating_split)
+from ..scene.schema import DEFAULT_NEGLIGIBLE
 from .time import gas_phasors
 
 
@@ -150,6 +152,10 @@ def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dic
         "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
         "fft_backend": backend,
         "balanced_rtol": BALANCED_RTOL,
+        "zero_rtol": ZERO_RTOL,
+        "negligible": float(attrs.get("negligible", DEFAULT_NEGLIGIBLE)),
+        "classes": "zero: at most zero_rtol x the load scale (round-off); negligible: at most the negligible level, "
+                   "negligible x the load scale / cylinders; free: above it",
     })
     return values, attrs
 
@@ -218,6 +224,7 @@ def orders_dataset(values: dict, attrs: dict, speeds: Speeds, coords: dict, *, l
         }, f"aliasing_error_{name}")
         data[f"{name}_scale"] = var(lead, values[f"{name}_scale"], {
             "units": units, "long_name": f"sum of single-body peak {name}s"}, f"{name}_scale")
+    data.update(order_classes(values, constants, speeds, attrs, lead))
     coords = dict(coords)
     count = values["force"].shape[-2]
     order = np.arange(count) if revs == 1 else np.arange(count) / revs  # half orders of a four-stroke cycle
@@ -227,6 +234,48 @@ def orders_dataset(values: dict, attrs: dict, speeds: Speeds, coords: dict, *, l
         "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
     })
     return dataset(data, coords, attrs)
+
+
+def order_classes(values: dict, constants: dict, speeds: Speeds, attrs: dict, lead: tuple = ()) -> dict:
+    """The class of every rotating component and of the roll moment
+    (:func:`harmbal.orders.spectrum.classify`: zero, negligible, free) and
+    the negligible levels, as Dataset entries.
+
+    ``values`` are :func:`order_arrays`' (at unit speed, or at each speed
+    over ``lead`` as given), ``constants`` their speed-independent gas parts.
+    Each component is judged against the scale of the loads that make it:
+    the force and the transverse moment against the inertial load scale
+    (both go with ω², so their classes hold at every speed), the roll
+    moment against the inertial plus the gas torque's scale, at each of
+    ``speeds`` when there is gas."""
+    cylinders, fraction = int(attrs.get("cylinders", 1)), float(attrs.get("negligible", DEFAULT_NEGLIGIBLE))
+    data = {}
+
+    def judged(amplitude, scale, dims, long_name):
+        scale = np.asarray(scale)[(...,) + (None,) * (np.ndim(amplitude) - np.ndim(scale))]
+        return (dims, classify(amplitude, scale, negligible_level(scale, cylinders, fraction)),
+                {"long_name": long_name, **CLASS_ATTRS})
+
+    def level(name, scale_key, constant):
+        units = "N" if name == "force" else "N m"
+        return speeds.variable(lead, negligible_level(values[scale_key], cylinders, fraction), {
+            "units": units, "long_name": f"amplitude at or below which a {name.replace('_', ' ')} component is "
+                                         "negligible"},
+            constant=None if constant is None else negligible_level(constant, cylinders, fraction))
+
+    for name in ("force", "moment"):
+        data[f"{name}_class"] = judged(values[f"{name}_rotating"], values[f"{name}_scale"], lead + ("order", "rotation"),
+                                       f"class of the rotating {name} phasors")
+        data[f"{name}_negligible_level"] = level(name, f"{name}_scale", None)
+    gas_roll, gas_scale = constants.get("moment"), constants.get("moment_scale")
+    if gas_roll is None and gas_scale is None:
+        roll, scale, dims = np.asarray(values["moment"])[..., 0], values["moment_scale"], lead
+    else:
+        roll = speeds.scaled(np.asarray(values["moment"])[..., 0], None if gas_roll is None else gas_roll[..., 0])
+        scale, dims = speeds.scaled(values["moment_scale"], gas_scale), speeds.lead
+    data["roll_class"] = judged(roll, scale, dims + ("order",), "class of the moment about the crank axis")
+    data["roll_negligible_level"] = level("roll_moment", "moment_scale", gas_scale)
+    return data
 
 
 #: A fixed sampling whose estimated relative error exceeds this does not resolve the orders asked for.

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..labelled import AXES, Speeds, dataset
+from ..labelled import AXES, Speeds, dataset, with_speed_indexes
 from ..model.evaluate import evaluate
 from ..orders.phasors import OrderPhasors, order_phasors
-from ..orders.spectrum import BALANCED_RTOL, ROTATION, is_balanced, rotating_split
+from ..orders.spectrum import (BALANCED_RTOL, CLASS_ATTRS, FREE, ROTATION, ZERO_RTOL, classify, is_balanced,
+                               negligible_level, rotating_split)
+from ..scene.schema import DEFAULT_NEGLIGIBLE
 from ..orders.stars import crank_stars
 from ..scene.firing import Firing, cylinder_firing
 from ..scene import Scene
@@ -52,8 +54,14 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         * ``force_cylinder``, ``moment_cylinder`` (cylinder, order, rotation):
           each cylinder's rotating phasors (with its throw unbalances), the
           arrows of the phasor diagram.
-        * ``force_free``, ``moment_free`` (order, rotation) and ``roll_free``
-          (order, the moment about the crank axis): the classification.
+        * ``force_class``, ``moment_class`` (order, rotation) and
+          ``roll_class`` (order, the moment about the crank axis): int8
+          codes 0 zero (round-off), 1 negligible (at or below
+          ``force_negligible_level``/``moment_negligible_level``: the scene's
+          ``[model] negligible`` × the load scale / cylinders), 2 free
+          (:func:`harmbal.orders.spectrum.classify`); ``force_free``,
+          ``moment_free``, ``roll_free``: class 2, what a balancer must deal
+          with.
         * ``firing_angle`` (cylinder) [rad], ``firing_sequence`` and
           ``firing_interval`` [rad] (firing).
     """
@@ -96,9 +104,12 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
     # In a tree the free vectors are /orders' (one set of totals judged once); alone, the order domain's.
     force, moment = (p.force, p.moment) if totals is None else totals
     force_rot, moment_rot = rotating(force), rotating(moment)
-    force_free = ~is_balanced(force_rot, force_scale)
-    moment_free = ~is_balanced(moment_rot, moment_scale)
-    roll_free = ~is_balanced(moment[0], moment_scale)
+    cylinders, fraction = len(labels), float(attrs.get("negligible", DEFAULT_NEGLIGIBLE))
+    force_level = negligible_level(force_scale, cylinders, fraction)
+    moment_level = negligible_level(moment_scale, cylinders, fraction)
+    force_class = classify(force_rot, force_scale, force_level)
+    moment_class = classify(moment_rot, moment_scale, moment_level)
+    roll_class = classify(moment[0], moment_scale, moment_level)
 
     def cleaned(values, scale):
         return np.where(is_balanced(values, scale), 0, values)
@@ -128,9 +139,21 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
                               {"units": "N", "long_name": "one cylinder's rotating force phasors"}),
         "moment_cylinder": var(("cylinder", "order", "rotation"), rotating(p.moment_cylinder),
                                {"units": "N m", "long_name": "one cylinder's rotating moment phasors"}),
-        "force_free": (("order", "rotation"), force_free, {"long_name": "rotating force component is free"}),
-        "moment_free": (("order", "rotation"), moment_free, {"long_name": "rotating moment component is free"}),
-        "roll_free": ("order", roll_free, {"long_name": "moment about the crank axis is free"}),
+        "force_free": (("order", "rotation"), force_class == FREE,
+                       {"long_name": "rotating force component is free (above the negligible level)"}),
+        "moment_free": (("order", "rotation"), moment_class == FREE,
+                        {"long_name": "rotating moment component is free (above the negligible level)"}),
+        "roll_free": ("order", roll_class == FREE,
+                      {"long_name": "moment about the crank axis is free (above the negligible level)"}),
+        "force_class": (("order", "rotation"), force_class,
+                        {"long_name": "class of the rotating force phasors", **CLASS_ATTRS}),
+        "moment_class": (("order", "rotation"), moment_class,
+                         {"long_name": "class of the rotating moment phasors", **CLASS_ATTRS}),
+        "roll_class": ("order", roll_class, {"long_name": "class of the moment about the crank axis", **CLASS_ATTRS}),
+        "force_negligible_level": var((), force_level, {"units": "N", "long_name": "amplitude at or below which a "
+                                                                                  "force component is negligible"}),
+        "moment_negligible_level": var((), moment_level, {"units": "N m", "long_name": "amplitude at or below which "
+                                                                                      "a moment component is negligible"}),
         "force_scale": var((), force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
         "moment_scale": var((), moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
         "aliasing_error_force": var((), p.aliasing[0],
@@ -160,6 +183,8 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
         "phase": "arg C_k, relative to theta = 0 (throw 1 along +z)",
         "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
         "balanced_rtol": BALANCED_RTOL,
+        "zero_rtol": ZERO_RTOL,
+        "negligible": fraction,
         "firing_order": "-".join(labels[i] for i in fire.sequence),
         "firing_order_given": "yes" if fire.given else "no",
         "firing_even": "yes" if fire.even else "no",
@@ -218,14 +243,14 @@ def verify_orders(scene: Scene, *, backend: str = "scipy"):
             f"{name}_tolerance": (lead, tol, {"units": units}),
             f"{name}_passed": (lead + ("order",), ok),
         })
-    return xr.Dataset(data, coords, {
+    return with_speed_indexes(xr.Dataset(data, coords, {
         "title": f"harmbal order-domain verification: {scene.name}",
         "engine": scene.name,
         "samples_per_rev": p.samples_per_rev,
         "verify_rtol": VERIFY_RTOL,
         "tolerance": "verify_rtol x largest single-cylinder peak load + aliasing estimates of both paths",
         "passed": "yes" if passed else "no",
-    })
+    }))
 
 
 def with_free_vectors(stars_ds, orders_ds):
@@ -238,6 +263,7 @@ def with_free_vectors(stars_ds, orders_ds):
     out = {}
     for name in FREE_VECTORS:
         value = orders_ds[name]
-        scale = orders_ds[f"{name.split('_')[0]}_scale"]  # a DataArray: aligned by label, not by position
+        # /stars' own (inertial) scale, the one its classes are judged against; a DataArray: aligned by label.
+        scale = stars_ds[f"{name.split('_')[0]}_scale"]
         out[name] = xr.where(np.abs(value) <= rtol * scale, 0, value, keep_attrs=True)
     return stars_ds.assign(out)

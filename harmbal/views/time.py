@@ -293,7 +293,7 @@ def attributes(scene: Scene, samples: int, gas: GasLoads | None = None) -> dict:
         "title": f"harmbal time-domain shaking loads: {scene.name}",
         "engine": scene.name,
         "harmbal_version": __version__,
-        "conventions": CONVENTIONS,
+        "harmbal_conventions": CONVENTIONS,
         "rotation": scene.rotation,
         "cycle_strokes": scene.cycle,
         "reference_point": np.asarray(scene.reference_point, dtype=float),
@@ -301,6 +301,8 @@ def attributes(scene: Scene, samples: int, gas: GasLoads | None = None) -> dict:
         "effects": " ".join(e for e in EFFECTS if e in model.effects),
         "piston_model": model.piston if model.piston == "exact" else f"series-{model.series_harmonics}",
         "rod_model": model.rod,
+        "cylinders": len(scene.cylinders),
+        "negligible": float(model.negligible),
         "samples_per_rev": samples,
         "max_order": scene.sampling.max_order,
         # The relative accuracy asked for; 0 when the scene fixes samples_per_rev instead.

@@ -129,7 +129,7 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
     data = {
         "pressure": (("cylinder", "angle"), gas.pressure, {"units": "Pa", "long_name": "cylinder pressure (absolute)"}),
         "volume": (("cylinder", "angle"), gas.volume,
-                   {"units": "m3", "long_name": "displaced volume above TDC, A·(c_TDC − c_B(θ))",
+                   {"units": "m^3", "long_name": "displaced volume above TDC, A·(c_TDC − c_B(θ))",
                     "description": "0 at TDC, swept_volume at BDC; the clearance volume is not included"}),
         "gas_force": (("cylinder", "angle"), gas.force,
                       {"units": "N", "long_name": "gas force on the piston, towards the crank"}),
@@ -150,7 +150,7 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
                                                                                 "torque's mean is zero)"}),
         "imep": (("cylinder",), imep, {"units": "Pa", "long_name": "indicated mean effective pressure",
                                        "description": "work per cycle / swept volume"}),
-        "swept_volume": (("cylinder",), gas.swept_volume, {"units": "m3", "long_name": "swept volume"}),
+        "swept_volume": (("cylinder",), gas.swept_volume, {"units": "m^3", "long_name": "swept volume"}),
         "firing_angle": (("cylinder",), gas.firing_angle, {"units": "rad", "long_name": "crank angle θ of firing TDC"}),
         "cylinder_torque_order": speeds.variable(("cylinder", "order"), -mass_cylinder, {
             "units": "N m", "long_name": "order phasor of one cylinder's torque on the crank (gas − mass torque)",
@@ -187,15 +187,15 @@ def _speed_fluctuation(flywheel: Flywheel, unit: UnitLoads, gas: GasLoads, speed
         "omega": (lead + ("angle",), per_speed([r.omega for r in runs]),
                   {"units": "rad/s", "long_name": f"crank speed over the cycle ({mean} = the scene's speed)"}),
         "alpha": (lead + ("angle",), per_speed([r.alpha for r in runs]),
-                  {"units": "rad/s2", "long_name": "crank angular acceleration"}),
+                  {"units": "rad/s^2", "long_name": "crank angular acceleration"}),
         "fluctuation_coefficient": (lead, per_speed([r.coefficient for r in runs]), {
             "units": "1", "long_name": "coefficient of speed fluctuation (ω_max − ω_min)/ω_mean"}),
         "flywheel_inertia": ((), flywheel.inertia,
-                             {"units": "kg m2", "long_name": "constant rotating inertia J₀ (flywheel, crankshaft …)"}),
+                             {"units": "kg m^2", "long_name": "constant rotating inertia J₀ (flywheel, crankshaft …)"}),
         "load_torque": ((), runs[0].load_torque, {"units": "N m", "long_name": "load torque (constant)"}),
     }
     if flywheel.target_coefficient is not None:
         data["flywheel_inertia_needed"] = (lead, per_speed(flywheels_needed(flywheel, speeds.values, unit, gas)), {
-            "units": "kg m2", "long_name": "constant inertia J₀ that gives the target coefficient",
+            "units": "kg m^2", "long_name": "constant inertia J₀ that gives the target coefficient",
             "fluctuation_target": flywheel.target_coefficient})
     return data

@@ -1,0 +1,104 @@
+"""Keep xarray from importing dask, pint and the other duck-array libraries
+when nothing uses them.
+
+xarray checks data against the array types of the libraries it knows
+(``array_type("dask")`` whenever a ``Variable`` is made, ``array_type("pint")``
+whenever an index is, and cupy, sparse and cubed in places), and the check,
+in ``xarray.namedarray.pycompat``, imports the library when it is installed.
+For a ``harmbal report`` that is dask.array and pint (which imports dask in
+turn, with yaml, jinja2 and psutil): about 0.5 s of CPU for checks that can
+only say no, since an array of a library exists only once that library is
+imported. :func:`defer_duck_array_imports` puts entries into the checks'
+cache that answer "no such array type" until the library is imported by
+someone, and xarray's own answer from then on; ``is_dask_collection``
+likewise answers False until dask is imported. Chunked sweeps import dask
+themselves (harmbal.studies.sweep) and then see the real types.
+
+Only private xarray names are touched, each looked up defensively: with an
+xarray that lacks them, nothing is changed and xarray behaves as it always
+did.
+"""
+
+from __future__ import annotations
+
+import sys
+
+#: The libraries deferred and the module whose import makes their arrays possible.
+DEFERRED = {"dask": "dask.array", "pint": "pint", "cupy": "cupy", "sparse": "sparse", "cubed": "cubed"}
+
+
+def defer_duck_array_imports() -> list[str]:
+    """Install the deferred checks into xarray (at most once per library).
+
+    Returns
+    -------
+    list of str
+        The libraries whose check is deferred now (installed by this call or
+        an earlier one); a library already imported, or already checked by
+        xarray, is left as it is.
+    """
+    try:
+        from xarray.namedarray import pycompat, utils
+    except ImportError:
+        return []
+    cache = getattr(pycompat, "_cached_duck_array_modules", None)
+    module_type = getattr(pycompat, "DuckArrayModule", None)
+    if not isinstance(cache, dict) or module_type is None:
+        return []
+    deferred = []
+    for name, arrays in DEFERRED.items():
+        if isinstance(cache.get(name), _Deferred):
+            deferred.append(name)
+        elif name not in cache and name not in sys.modules:
+            cache[name] = _deferred(module_type, cache, name, arrays)
+            deferred.append(name)
+    collection = getattr(utils, "is_dask_collection", None)
+    if "dask" in deferred and collection is not None and not getattr(collection, "_harmbal_deferred", False):
+        utils.is_dask_collection = _deferred_collection(collection)
+    return deferred
+
+
+class _Deferred:
+    """Marker base of the deferred cache entries."""
+
+
+def _deferred(module_type, cache: dict, name: str, arrays: str):
+    """A cache entry for library ``name`` that imports nothing until module
+    ``arrays`` is imported, then hands over to xarray's own entry."""
+
+    class Deferred(module_type, _Deferred):
+        def __init__(self):  # no import here: that is the point
+            pass
+
+        def _real(self):
+            real = module_type(name)
+            cache[name] = real
+            return real
+
+        @property
+        def type(self):
+            return self._real().type if arrays in sys.modules else ()
+
+        @property
+        def module(self):
+            return self._real().module if name in sys.modules else None
+
+        @property
+        def available(self):
+            return self._real().available if name in sys.modules else False
+
+        @property
+        def version(self):
+            return self._real().version
+
+    return Deferred()
+
+
+def _deferred_collection(original):
+    """``is_dask_collection`` that is False, without importing dask, until dask is imported."""
+
+    def is_dask_collection(x) -> bool:
+        return "dask" in sys.modules and original(x)
+
+    is_dask_collection._harmbal_deferred = True
+    return is_dask_collection

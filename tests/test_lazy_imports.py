@@ -1,0 +1,74 @@
+"""harmbal.reporting.lazy_imports: xarray imports dask and pint only when
+someone uses them.
+
+Each check runs in a fresh interpreter (what is imported is process state).
+Oracles: ``sys.modules`` after a report, and xarray's own handling of a dask
+array and a pint quantity once those libraries are imported.
+"""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _run(code: str) -> str:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
+    return out.stdout.strip()
+
+
+def _installed(name: str) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(name) is not None
+
+
+@pytest.mark.skipif(not (_installed("dask") and _installed("pint")), reason="needs dask and pint installed")
+def test_a_report_imports_neither_dask_nor_pint():
+    code = ("import sys, harmbal as hb\n"
+            "from harmbal.reporting.html import report\n"
+            "tree = hb.analyse(hb.load_scene('datasets/engines/v8-cross-plane.toml'))\n"
+            "report(tree)\n"
+            "print(sorted(m for m in ('dask', 'dask.array', 'pint') if m in sys.modules))")
+    assert _run(code) == "[]"
+
+
+@pytest.mark.skipif(not _installed("dask"), reason="needs dask")
+def test_dask_arrays_still_work_once_dask_is_imported():
+    code = ("from harmbal.reporting.lazy_imports import defer_duck_array_imports\n"
+            "print(defer_duck_array_imports())\n"
+            "import xarray as xr, numpy as np\n"
+            "xr.DataArray(np.arange(4.0), dims='x')  # a Variable before dask: no dask import\n"
+            "import sys; print('dask' in sys.modules)\n"
+            "import dask.array as da\n"
+            "a = xr.DataArray(da.ones(4, chunks=2), dims='x')\n"
+            "print(a.chunks, type(a.data).__module__.split('.')[0], float(a.sum()))\n"
+            "print(xr.Dataset({'v': ('x', np.arange(4.0))}).chunk({'x': 2})['v'].chunks)")
+    lines = _run(code).splitlines()
+    assert "'dask'" in lines[0]
+    assert lines[1] == "False"
+    assert lines[2] == "((2, 2),) dask 4.0"
+    assert lines[3] == "((2, 2),)"
+
+
+@pytest.mark.skipif(not _installed("pint"), reason="needs pint")
+def test_pint_quantities_still_work_once_pint_is_imported():
+    code = ("from harmbal.reporting.lazy_imports import defer_duck_array_imports\n"
+            "defer_duck_array_imports()\n"
+            "import xarray as xr, numpy as np, pint\n"
+            "u = pint.UnitRegistry()\n"
+            "a = xr.DataArray(u.Quantity(np.arange(3.0), 'm'), dims='x')\n"
+            "print(type(a.data).__name__, str(a.data.units))")
+    assert _run(code) == "Quantity meter"
+
+
+def test_nothing_is_deferred_once_a_library_is_in_use():
+    code = ("import dask.array\n"
+            "from harmbal.reporting.lazy_imports import defer_duck_array_imports\n"
+            "print('dask' in defer_duck_array_imports())")
+    if not _installed("dask"):
+        pytest.skip("needs dask")
+    assert _run(code) == "False"

@@ -32,9 +32,15 @@ def _makers(count: int):
 def test_forked_rendering_equals_serial_rendering(monkeypatch):
     if not svg.can_fork():
         pytest.skip("no fork or one CPU here: figures_svg renders serially")
-    forked = svg.figures_svg(_makers(5))
+    forked = svg._complete(_makers(5), svg._shared(_makers(5)))
     monkeypatch.setenv(svg.SERIAL_ENV, "1")
     assert svg.figures_svg(_makers(5)) == forked
+
+
+def test_without_the_commands_worker_nothing_is_forked(monkeypatch):
+    # hb.report from Python (a notebook kernel) must never fork its process.
+    monkeypatch.setattr(svg.os, "fork", lambda: pytest.fail("forked"))
+    assert len(svg.figures_svg(_makers(3))) == 3
 
 
 def test_a_failing_child_is_made_good_here(monkeypatch):
@@ -52,7 +58,7 @@ def test_a_failing_child_is_made_good_here(monkeypatch):
         return real(make, number)
 
     monkeypatch.setattr(svg, "made_svg", broken_in_child)
-    assert svg.figures_svg(_makers(4)) == serial
+    assert svg._complete(_makers(4), svg._shared(_makers(4))) == serial
 
 
 def test_ids_are_renamed_in_order_and_every_reference_resolves():

@@ -259,24 +259,19 @@ def _settings(page: _Page, scene, tree) -> None:
                      f"{time.attrs['max_order']}"],
         ["estimated accuracy (aliasing)", f"force {alias_f:.2g} N, moment {alias_m:.2g} N m"],
         ["moments about", f"({ref[0]:g}, {ref[1]:g}, {ref[2]:g}) mm"],
+        ["zero, negligible", _levels(_first_speed(orders))],
         ["harmbal version", __version__],
     ]
-    page.add('<section id="settings"><h2>Settings</h2>' + _table(["item", "value"], rows, 2)
-             + f'<p class="note">{_e(_classes_note(_first_speed(orders)))}</p></section>')
+    page.add('<section id="settings"><h2>Settings</h2>' + _table(["item", "value"], rows, 2) + "</section>")
 
 
-def _classes_note(stars) -> str:
-    """What the classes mean, with the negligible levels of ``stars`` or
-    ``orders`` (one speed)."""
-    from .tables import negligible_note
-
-    if "force_negligible_level" not in stars:
-        return "balanced: zero to round-off; free: what a balancer must deal with."
-    return ("balanced: every component zero to round-off; negligible: what is left is below the negligible level; "
-            "free: what a balancer must deal with. "
-            + negligible_note({"N": float(stars["force_negligible_level"]),
-                               "N m": float(stars["moment_negligible_level"])},
-                              float(stars.attrs.get("negligible", 0.0))) + ".")
+def _levels(orders) -> str:
+    """The classes' thresholds of ``orders`` at one speed, in words."""
+    zero = f"zero: at most {orders.attrs.get('zero_rtol', 1e-10):g} of the load scale (round-off)"
+    if "force_negligible_level" not in orders:
+        return zero
+    return (f"{zero}; negligible: at most {orders.attrs.get('negligible', 0.0):g} of one cylinder's share of it, "
+            f"{float(orders['force_negligible_level']):.2g} N, {float(orders['moment_negligible_level']):.2g} N m")
 
 
 def _spectrum(page: _Page, tree, log: bool) -> None:

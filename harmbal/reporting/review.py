@@ -103,7 +103,8 @@ def layout_words(scene) -> str:
     if len(banks) == 2:
         angle = round(min((banks[1] - banks[0]) % 360, (banks[0] - banks[1]) % 360), 4)
         return f"{n} cylinders opposed (180°)" if angle == 180 else f"{n} cylinders in a {angle:g}° V"
-    return f"{n} cylinders in {len(banks)} banks at " + ", ".join(f"{(b + 180) % 360 - 180:g}°" for b in banks)
+    signed = sorted((b + 180) % 360 - 180 for b in banks)
+    return f"{n} cylinders in {len(banks)} banks at " + ", ".join(f"{b:g}°".replace("-", "−") for b in signed)
 
 
 def order_loads(orders) -> list[OrderLoads]:

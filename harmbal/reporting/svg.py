@@ -1,22 +1,22 @@
 """The report's figures as inline SVG: each made and rendered once and,
-where the machine allows, two at a time.
+for the ``harmbal report`` command, two at a time.
 
 Making and drawing the figures (matplotlib's import, the layout, the SVG) is
 most of what a report costs once the analysis is done (docs/performance.md,
 "Report"), and the figures are independent. The report hands
-:func:`figures_svg` a maker per figure (a function and its Datasets), and on
-Linux with two or more CPUs free to this process:
+:func:`figures_svg` a maker per figure (a function and its Datasets):
 
-* if :func:`start_worker` was called earlier (``harmbal report`` calls it
-  before it analyses the scene), the figures go to that process, which has
-  imported matplotlib meanwhile, and it makes them in two processes;
-* otherwise this process forks one child that makes about half of the
-  figures (by their usual cost) while it makes the others.
+* if :func:`start_worker` was called earlier (only ``harmbal report`` does,
+  before it analyses the scene, in a process of its own), the figures go to
+  that process, which has imported matplotlib meanwhile, and it makes them in
+  two processes (itself and one child, about half each by their usual cost);
+* otherwise (``hb.report`` from Python, a notebook: a process harmbal does
+  not own must never be forked) they are made here, one after the other.
 
 A helper writes its SVG texts back and exits; whatever it fails to deliver
 is made here, so the page is the same either way: a figure's SVG depends
-only on its maker and its number. Elsewhere (no ``os.fork``, one CPU, or
-``HARMBAL_REPORT_SERIAL=1``) the figures are made one after the other.
+only on its maker and its number. Without ``os.fork``, with one CPU, or with
+``HARMBAL_REPORT_SERIAL=1``, no worker is started.
 """
 
 from __future__ import annotations
@@ -99,16 +99,11 @@ def figures_svg(figures: list) -> list[str]:
     list of str
         In the order given, the same as ``[made_svg(make, number) for make,
         number, _ in figures]`` (made by the worker of :func:`start_worker`,
-        or partly in a forked child, where possible).
+        where one was started).
     """
     worker = _take_worker()
-    if worker is not None and figures:
-        found = _ask(worker, figures)
-        if found is not None:
-            return _complete(figures, found)
-    if len(figures) < 2 or not can_fork():
-        return [made_svg(make, number) for make, number, _ in figures]
-    return _complete(figures, _shared(figures))
+    found = _ask(worker, figures) if worker is not None and figures else None
+    return _complete(figures, found or {})
 
 
 def start_worker() -> bool:

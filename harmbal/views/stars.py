@@ -7,12 +7,12 @@ import numpy as np
 from ..labelled import AXES, Speeds, dataset, with_speed_indexes
 from ..model.evaluate import evaluate
 from ..orders.phasors import OrderPhasors, order_phasors
-from ..orders.spectrum import (BALANCED_RTOL, CLASS_ATTRS, FREE, ROTATION, ZERO_RTOL, classify, is_balanced,
-                               negligible_level, rotating_split)
+from ..orders.spectrum import BALANCED_RTOL, FREE, ROTATION, ZERO_RTOL, is_balanced, rotating_split
 from ..scene.schema import DEFAULT_NEGLIGIBLE
 from ..orders.stars import crank_stars
 from ..scene.firing import Firing, cylinder_firing
 from ..scene import Scene
+from .orders import order_classes
 from .time import attributes
 
 
@@ -104,12 +104,11 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
     # In a tree the free vectors are /orders' (one set of totals judged once); alone, the order domain's.
     force, moment = (p.force, p.moment) if totals is None else totals
     force_rot, moment_rot = rotating(force), rotating(moment)
-    cylinders, fraction = len(labels), float(attrs.get("negligible", DEFAULT_NEGLIGIBLE))
-    force_level = negligible_level(force_scale, cylinders, fraction)
-    moment_level = negligible_level(moment_scale, cylinders, fraction)
-    force_class = classify(force_rot, force_scale, force_level)
-    moment_class = classify(moment_rot, moment_scale, moment_level)
-    roll_class = classify(moment[0], moment_scale, moment_level)
+    # The classes and levels as /orders judges them (at unit speed: every speed has the same classes).
+    classes = order_classes({"force_rotating": force_rot, "force_scale": force_scale, "moment_rotating": moment_rot,
+                             "moment": moment.T, "moment_scale": moment_scale}, {}, speeds,
+                            {**attrs, "cylinders": len(labels)})
+    force_free, moment_free, roll_free = (classes[f"{name}_class"][1] == FREE for name in ("force", "moment", "roll"))
 
     def cleaned(values, scale):
         return np.where(is_balanced(values, scale), 0, values)
@@ -139,21 +138,13 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
                               {"units": "N", "long_name": "one cylinder's rotating force phasors"}),
         "moment_cylinder": var(("cylinder", "order", "rotation"), rotating(p.moment_cylinder),
                                {"units": "N m", "long_name": "one cylinder's rotating moment phasors"}),
-        "force_free": (("order", "rotation"), force_class == FREE,
+        "force_free": (("order", "rotation"), force_free,
                        {"long_name": "rotating force component is free (above the negligible level)"}),
-        "moment_free": (("order", "rotation"), moment_class == FREE,
+        "moment_free": (("order", "rotation"), moment_free,
                         {"long_name": "rotating moment component is free (above the negligible level)"}),
-        "roll_free": ("order", roll_class == FREE,
+        "roll_free": ("order", roll_free,
                       {"long_name": "moment about the crank axis is free (above the negligible level)"}),
-        "force_class": (("order", "rotation"), force_class,
-                        {"long_name": "class of the rotating force phasors", **CLASS_ATTRS}),
-        "moment_class": (("order", "rotation"), moment_class,
-                         {"long_name": "class of the rotating moment phasors", **CLASS_ATTRS}),
-        "roll_class": ("order", roll_class, {"long_name": "class of the moment about the crank axis", **CLASS_ATTRS}),
-        "force_negligible_level": var((), force_level, {"units": "N", "long_name": "amplitude at or below which a "
-                                                                                  "force component is negligible"}),
-        "moment_negligible_level": var((), moment_level, {"units": "N m", "long_name": "amplitude at or below which "
-                                                                                      "a moment component is negligible"}),
+        **classes,
         "force_scale": var((), force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
         "moment_scale": var((), moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
         "aliasing_error_force": var((), p.aliasing[0],
@@ -184,7 +175,7 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
         "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
         "balanced_rtol": BALANCED_RTOL,
         "zero_rtol": ZERO_RTOL,
-        "negligible": fraction,
+        "negligible": float(attrs.get("negligible", DEFAULT_NEGLIGIBLE)),
         "firing_order": "-".join(labels[i] for i in fire.sequence),
         "firing_order_given": "yes" if fire.given else "no",
         "firing_even": "yes" if fire.even else "no",

@@ -216,7 +216,7 @@ def _bench(args) -> None:
 
 def _run(args) -> None:
     if args.output is not None:
-        _check_output(args.output)
+        _check_output(args.output, inputs=(args.scene,))
     scene = _load(args.scene, args.negligible)
     from .model.sampling import simulates_gas
 
@@ -275,7 +275,7 @@ def _provenance(args) -> dict:
 
 def _loads(args) -> None:
     if args.output is not None:
-        _check_output(args.output, (".nc",), "the loads are written as a netCDF archive (.nc)")
+        _check_output(args.output, (".nc",), "the loads are written as a netCDF archive (.nc)", inputs=(args.scene,))
     scene = _load(args.scene)
     from .analysis import scene_dataset
     from .labelled import tree
@@ -635,13 +635,23 @@ def _design(args) -> None:
     _write_scene(args.output, result.text)
 
 
-def _check_output(path: Path, suffixes: tuple[str, ...] = (), rule: str = "") -> None:
-    """Refuse an output file with the wrong extension (``rule`` says which)
-    or in a directory that does not exist, before any work is done."""
+def _check_output(path: Path, suffixes: tuple[str, ...] = (), rule: str = "", *, inputs: tuple = ()) -> None:
+    """Refuse, before any work is done, an output file with the wrong
+    extension (``rule`` says which), in a directory that does not exist or
+    cannot be written, that is a directory or not a regular file, or that is
+    one of the ``inputs`` (the scene it would overwrite)."""
+    import os
+
     if suffixes and path.suffix.lower() not in suffixes:
         raise _BadInput(f"{path}: {rule}")
     if not path.parent.is_dir():
         raise _BadInput(f"{path}: output directory {path.parent} does not exist")
+    if path.exists() and path.suffix.lower() != ".zarr" and not path.is_file():
+        raise _BadInput(f"{path}: is a directory or not a regular file; choose a file name to write")
+    if any(Path(i).exists() and path.exists() and path.resolve() == Path(i).resolve() for i in inputs):
+        raise _BadInput(f"{path}: would overwrite the input scene; choose another file")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise _BadInput(f"{path}: output directory {path.parent} is not writable")
 
 
 def _write_scene(path: Path, text: str) -> None:
@@ -732,7 +742,7 @@ def _stars(args) -> None:
 def _report(args) -> None:
     from .reporting.html import report
 
-    _check_output(args.output, (".html", ".htm"), "the report is an HTML file (.html)")
+    _check_output(args.output, (".html", ".htm"), "the report is an HTML file (.html)", inputs=(args.input,))
     css = ""
     if args.css is not None:
         try:

@@ -70,8 +70,46 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
             text = repr(data)
     else:
         path = Path(path_or_mapping)
-        return scene_from_text(path.read_text(encoding="utf-8"), str(path))
+        return scene_from_text(read_scene_text(path), str(path))
     return _read(data, text, source)
+
+
+#: Largest scene file read [bytes]: a scene is a few kB of TOML; anything this large is not one.
+MAX_SCENE_BYTES = 1 << 20
+
+
+def read_scene_text(path: Path) -> str:
+    """The text of the scene file ``path``: a regular file (not a directory,
+    FIFO or device, which could block or never end) of at most
+    :data:`MAX_SCENE_BYTES`, in UTF-8 with or without a byte-order mark.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    SceneError
+        One problem naming the file and saying what to do otherwise.
+    """
+    import stat
+
+    mode = path.stat().st_mode  # FileNotFoundError as documented
+    if not stat.S_ISREG(mode):
+        kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file (a FIFO, device or socket)"
+        raise _file_problem(path, f"is {kind}: give the path of a scene file (.toml)")
+    with path.open("rb") as file:
+        raw = file.read(MAX_SCENE_BYTES + 1)
+    if len(raw) > MAX_SCENE_BYTES:
+        raise _file_problem(path, f"is larger than {MAX_SCENE_BYTES // 1024} KiB: not a scene file (a scene is a "
+                                  "few kB of TOML)")
+    try:
+        return raw.decode("utf-8-sig")  # a byte-order mark, as some editors write, is not part of the TOML
+    except UnicodeDecodeError as exc:
+        raise _file_problem(path, f"is not UTF-8 text (byte {exc.start + 1} cannot be decoded): save it as UTF-8 "
+                                  "(TOML files are UTF-8)") from None
+
+
+def _file_problem(path: Path, rule: str) -> SceneError:
+    return SceneError([Problem(str(path), "(file)", _MISSING, rule)])
 
 
 def scene_from_text(text: str, source: str = "<text>") -> Scene:

@@ -731,9 +731,12 @@ def _stars(args) -> None:
         print()
         print(verification_table(check))
     if args.plot is not None:
+        import matplotlib
+
         from .reporting.plots import save_figure, stars_figure
 
-        save_figure(stars_figure(ds, orders=args.orders), args.plot)
+        with matplotlib.rc_context({"text.parse_math": False}):  # the scene's names drawn as written
+            save_figure(stars_figure(ds, orders=args.orders), args.plot)
         print(f"\nwrote {args.plot}")
     if args.verify and check.attrs["passed"] != "yes":
         raise _Disagreement("the order-domain and time-domain results disagree")

@@ -108,3 +108,40 @@ def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, capsys):
         assert "not writable" in _error(capsys)
     finally:
         folder.chmod(0o700)
+
+
+def _named(tmp_path, name: str) -> Path:
+    scene = tmp_path / "engine.toml"
+    text = TRACTOR.read_text(encoding="utf-8")
+    scene.write_text(text.replace('name = "tractor-3cyl"', f"name = {name}", 1), encoding="utf-8")
+    assert text.count('name = "tractor-3cyl"') == 1
+    return scene
+
+
+@pytest.mark.parametrize("name, rule", [('"a\\u0000b"', "control character U+0000"),
+                                        ('"two\\nlines"', "one line"), ('"   "', "must not be empty"),
+                                        ('"' + "x" * 201 + '"', "at most 200 characters")])
+def test_names_are_one_line_of_printable_text(tmp_path, capsys, name, rule):
+    scene = _named(tmp_path, name)
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.nc")]) == 2
+    line = _error(capsys)
+    assert "engine.name" in line and rule in line
+    assert not (tmp_path / "out.nc").exists()
+
+
+def test_a_label_with_a_control_character_names_its_key(tmp_path):
+    scene = _named(tmp_path, '"ok"')
+    scene.write_text(scene.read_text(encoding="utf-8") + '\n[[balance_shaft]]\nlabel = "bad\\u0007"\nratio = -1\n'
+                     'unbalance = { unbalance = "1 kg mm", angle = "0 deg" }\n', encoding="utf-8")
+    with pytest.raises(hb.SceneError) as info:
+        hb.load_scene(scene)
+    assert any(p.key == "balance_shaft[1].label" and "U+0007" in p.rule for p in info.value.problems)
+
+
+def test_mathtext_in_a_name_is_drawn_as_written(tmp_path, capsys):
+    scene = _named(tmp_path, "'a $\\foo$ engine'")
+    report, plot = tmp_path / "r.html", tmp_path / "s.svg"
+    assert main(["report", str(scene), "-o", str(report)]) == 0
+    assert main(["stars", str(scene), "--plot", str(plot)]) == 0
+    assert "a $\\foo$ engine" in report.read_text(encoding="utf-8")
+    assert "$\\foo$" in plot.read_text(encoding="utf-8")

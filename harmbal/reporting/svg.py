@@ -66,10 +66,13 @@ def report_style():
     """The matplotlib settings the report's figures are made with: axes
     titles at a fixed height above the axes (none of the report's axes has
     ticks on top), which spares matplotlib measuring every tick label again
-    to place each title (a tenth of the drawing)."""
+    to place each title (a tenth of the drawing); text drawn literally (no
+    mathtext)."""
     import matplotlib
 
-    return matplotlib.rc_context({"axes.titley": 1.0})
+    # text.parse_math off: names and labels from the scene are drawn as written, "$" and "\\" included
+    # (matplotlib would read "a $\\foo$" as mathtext and fail); harmbal's own labels use no mathtext.
+    return matplotlib.rc_context({"axes.titley": 1.0, "text.parse_math": False})
 
 
 def canonical_ids(svg: str, number: int) -> str:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tomllib
 from pathlib import Path
 from typing import Any, Mapping
@@ -74,6 +75,38 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
     return _read(data, text, source)
 
 
+#: Longest name or label [characters]: they head tables, figures and archive coordinates.
+MAX_LABEL = 200
+#: Control characters (C0, DEL, C1) a string may not hold; a description may hold tabs and line breaks.
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
+
+
+def text_problems(data: Any, source: str, path: str = "") -> list[Problem]:
+    """Problems of the strings in the raw scene ``data``: control characters
+    anywhere (a NUL cannot be written to an archive, others garble tables),
+    and names and labels that are empty, longer than :data:`MAX_LABEL` or
+    more than one line."""
+    if isinstance(data, Mapping):
+        return [p for key, value in data.items() for p in text_problems(value, source, _join(path, str(key)))]
+    if isinstance(data, list):
+        return [p for i, value in enumerate(data) for p in text_problems(value, source, f"{path}[{i + 1}]")]
+    if not isinstance(data, str):
+        return []
+    shown = data if len(data) <= 40 else data[:40] + "…"
+    found = _CONTROL.search(data)
+    if found:
+        return [Problem(source, path, shown, f"holds the control character U+{ord(found.group()):04X}: only "
+                                             "printable text")]
+    if path.rsplit(".", 1)[-1] in ("name", "label"):
+        if not data.strip():
+            return [Problem(source, path, data, "must not be empty")]
+        if "\n" in data or "\r" in data or "\t" in data:
+            return [Problem(source, path, shown, "must be one line of text")]
+        if len(data) > MAX_LABEL:
+            return [Problem(source, path, shown, f"must be at most {MAX_LABEL} characters ({len(data)} given)")]
+    return []
+
+
 #: Largest scene file read [bytes]: a scene is a few kB of TOML; anything this large is not one.
 MAX_SCENE_BYTES = 1 << 20
 
@@ -123,6 +156,7 @@ def scene_from_text(text: str, source: str = "<text>") -> Scene:
 
 def _read(data: Mapping, text: str, source: str) -> Scene:
     reader = _Reader(source)
+    reader.problems.extend(text_problems(data, source))
     scene = reader.scene(data, text)
     if reader.problems:
         raise SceneError(reader.problems)

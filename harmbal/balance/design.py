@@ -40,7 +40,7 @@ from ..scene.elements import Shaft, ShaftUnbalance
 from ..model.balancers import shaft_loads, shaft_phasors
 from ..orders.phasors import order_phasors
 from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio)
-from ..orders.spectrum import ZERO, ZERO_RTOL, classify, rotating_split
+from ..orders.spectrum import ZERO, ZERO_RTOL, classify, rotating_split, zero_below_round_off
 from ..scene import Scene, SceneError, scene_from_text
 from .counterweights import SizedBlank, size_blank
 from .solvers import LP_TOLERANCES, DesignError
@@ -48,8 +48,7 @@ from ..scene.writer import (angle_text, blank_table, length_text, quantity_text,
                             with_engine, without_tables)
 from ..model.evaluate import moment_about, evaluate
 from ..model.sampling import choose_samples
-from .verify import (CHECKED_ORDER, checked_orders, describe_component, made_worse_check, worsened_messages,
-                     zero_below_round_off)
+from .verify import CHECKED_ORDER, checked_orders, describe_component, made_worse_check, worsened_messages
 
 
 #: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the

@@ -25,8 +25,8 @@ import numpy as np
 from ..labelled import Speeds, dataset
 from ..model.evaluate import evaluate
 from ..model.sampling import choose_samples
-from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO, ZERO_RTOL, classify, negligible_level, phasors,
-                               rotating_split)
+from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO_RTOL, classify, negligible_level, phasors, rotating_split,
+                               zero_below_round_off)
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
 from ..views.stars import VERIFY_RTOL
@@ -68,12 +68,6 @@ def per_component(force, moment) -> np.ndarray:
     others, along a new last axis ``component``; ``force`` and ``moment``
     are scalars or arrays of the same shape (e.g. one value per speed)."""
     return np.where(IS_FORCE, np.expand_dims(force, -1), np.expand_dims(moment, -1))
-
-
-def zero_below_round_off(values: np.ndarray, scale) -> np.ndarray:
-    """``values`` with the components of the class *zero* (at most ZERO_RTOL
-    × the load ``scale``, round-off) set to exactly 0: no noise phase."""
-    return np.where(classify(values, scale, 0.0) == ZERO, 0, values)
 
 
 def made_worse_variables(before: np.ndarray, after: np.ndarray, targeted: np.ndarray, scale: np.ndarray,

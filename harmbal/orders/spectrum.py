@@ -173,6 +173,12 @@ def classify(amplitude, scale, level) -> np.ndarray:
     return np.where(a <= ZERO_RTOL * np.asarray(scale), ZERO, codes).astype(np.int8)
 
 
+def zero_below_round_off(values: np.ndarray, scale) -> np.ndarray:
+    """``values`` with the components of the class *zero* (at most ZERO_RTOL
+    × the load ``scale``, round-off) set to exactly 0: no noise phase."""
+    return np.where(classify(values, scale, 0.0) == ZERO, 0, values)
+
+
 def is_balanced(amplitude, scale, rtol: float = BALANCED_RTOL):
     """True where an order component is zero up to round-off: its amplitude is
     at most ``rtol`` times the single-body load scale."""

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..orders.spectrum import FREE, ZERO, is_balanced
+from ..orders.spectrum import FREE, ZERO, is_balanced, phase_degrees
 from .lazy_imports import defer_duck_array_imports
 
 # Before the analysis that a report follows makes its first xarray Variable: xarray would import dask.array
@@ -133,8 +133,6 @@ def _phasor(value: complex, scale: float, rtol: float) -> tuple[str, str]:
 
 def _class_phasor(value: complex, code: int) -> tuple[str, str]:
     """Amplitude and phase cells by class: 0 (round-off) and ~0 (negligible) without a phase."""
-    from ..orders.spectrum import phase_degrees
-
     if code != FREE:
         return ("0" if code == ZERO else "~0"), "—"
     return f"{abs(value):.5g}", f"{phase_degrees(value, 1):.1f}°"

@@ -35,7 +35,7 @@ from ..orders.stars import star_arms
 from ..scene.requests import signed_ratio
 from ..io.files import atomic_path
 from ..scene.elements import TRANSMISSION_WARNING
-from ..orders.spectrum import BALANCED_RTOL, is_balanced
+from ..orders.spectrum import BALANCED_RTOL, is_balanced, phase_degrees
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -172,10 +172,7 @@ def _quantity(value: float, unit: str, digits: int = 4) -> str:
 
 def _degrees(value: complex) -> str:
     """The phase of ``value`` in degrees in (−180, 180], one decimal."""
-    phase = round(float(np.degrees(np.angle(value))), 1)
-    if phase <= -180:
-        phase += 360
-    return f"{phase + 0.0:.1f}°"
+    return f"{phase_degrees(value, 1):.1f}°"
 
 
 def _t_label(rotation: str) -> str:

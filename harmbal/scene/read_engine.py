@@ -131,10 +131,10 @@ class EngineTables:
         if "negligible" in table:
             negligible = self.quantity(table, "negligible", "model", "dimensionless", positive=True)
             low, high = NEGLIGIBLE_RANGE
-            if math.isfinite(negligible) and not low <= negligible <= high:
-                self.fail("model.negligible", table["negligible"], f"must lie in [{low:g}, {high:g}] (a fraction of "
-                          f"one cylinder's share of the load scale; default {DEFAULT_NEGLIGIBLE:g})")
             if not (math.isfinite(negligible) and low <= negligible <= high):
+                if math.isfinite(negligible):  # else the quantity's own problem is reported
+                    self.fail("model.negligible", table["negligible"], f"must lie in [{low:g}, {high:g}] (a fraction "
+                              f"of one cylinder's share of the load scale; default {DEFAULT_NEGLIGIBLE:g})")
                 negligible = DEFAULT_NEGLIGIBLE
         return Model(effects=frozenset(effects & set(EFFECTS)), piston=piston, series_harmonics=harmonics or 2, rod=rod,
                      negligible=negligible)

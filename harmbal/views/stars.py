@@ -7,7 +7,7 @@ import numpy as np
 from ..labelled import AXES, Speeds, dataset, with_speed_indexes
 from ..model.evaluate import evaluate
 from ..orders.phasors import OrderPhasors, order_phasors
-from ..orders.spectrum import BALANCED_RTOL, FREE, ROTATION, ZERO_RTOL, is_balanced, rotating_split
+from ..orders.spectrum import BALANCED_RTOL, FREE, ROTATION, ZERO_RTOL, rotating_split, zero_below_round_off
 from ..scene.schema import DEFAULT_NEGLIGIBLE
 from ..orders.stars import crank_stars
 from ..scene.firing import Firing, cylinder_firing
@@ -110,20 +110,17 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
                             {**attrs, "cylinders": len(labels)})
     force_free, moment_free, roll_free = (classes[f"{name}_class"][1] == FREE for name in ("force", "moment", "roll"))
 
-    def cleaned(values, scale):
-        return np.where(is_balanced(values, scale), 0, values)
-
     angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars(throw, bank, kmax)
 
     # Alone, the free vectors of the order domain; in a tree they are /orders' (FREE_VECTORS).
     free = {} if totals is not None else {
-        "force": var(("order", "axis"), cleaned(force, force_scale).T,
+        "force": var(("order", "axis"), zero_below_round_off(force, force_scale).T,
                      {"units": "N", "long_name": "free force phasor"}),
-        "moment": var(("order", "axis"), cleaned(moment, moment_scale).T,
+        "moment": var(("order", "axis"), zero_below_round_off(moment, moment_scale).T,
                       {"units": "N m", "long_name": "free moment phasor about the reference point"}),
-        "force_rotating": var(("order", "rotation"), cleaned(force_rot, force_scale),
+        "force_rotating": var(("order", "rotation"), zero_below_round_off(force_rot, force_scale),
                               {"units": "N", "long_name": "co- and counter-rotating free force phasors"}),
-        "moment_rotating": var(("order", "rotation"), cleaned(moment_rot, moment_scale),
+        "moment_rotating": var(("order", "rotation"), zero_below_round_off(moment_rot, moment_scale),
                                {"units": "N m", "long_name": "co- and counter-rotating free moment phasors"}),
     }
     data = {

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from ._version import __version__, source_revision
-from .labelled import CONVENTIONS, Speeds, dataset, tree
+from .labelled import CONVENTIONS, Speeds, dataset, speed_independent_values, tree, unit_speed_values
+from .model.budget import check_budget
 from .model.evaluate import evaluate, time_domain_evaluation
 from .model.gas import gas_loads
 from .model.sampling import simulates_gas
@@ -18,8 +21,9 @@ from .views.torque import torque_dataset
 
 
 def scene_dataset(scene: Scene):
-    """The scene as a Dataset: one row per cylinder (SI units) and the scene
-    text in the ``scene_toml`` attribute, for provenance."""
+    """The scene as a Dataset: one row per cylinder (SI units), the scene
+    text in the ``scene_toml`` attribute, for provenance, and the texts of the
+    trace files it read in ``scene_files`` (JSON, {name as written: text})."""
     cyls = scene.cylinders
 
     def var(values, units, long_name):
@@ -45,6 +49,8 @@ def scene_dataset(scene: Scene):
         "description": scene.description,
         "source": scene.source,
         "scene_toml": scene.source_text,
+        # The trace files the scene read, by name as written: the scene re-reads from the archive alone.
+        "scene_files": json.dumps(dict(scene.files), ensure_ascii=False),
     })
 
 
@@ -78,7 +84,14 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         (:func:`harmbal.loads`: bearing and interface loads); if it has
         ``[[outline]]`` tables, ``/clearance`` (:func:`harmbal.clearance`:
         the smallest distance between moving parts over a revolution).
+
+    Raises
+    ------
+    SceneError
+        If the analysis would need more memory or time than the budget
+        (:func:`harmbal.model.budget.check_budget`, docs/scenes.md "Budgets").
     """
+    check_budget(scene, "analyse")  # refused before anything is allocated if over the memory or time budget
     if "speed_fluctuation" in scene.model.effects:
         return _fluctuating(scene, per_cylinder, backend)
     unit, samples = time_domain_evaluation(scene)  # with gas, the inertia on a grid of its own (see there)
@@ -155,6 +168,7 @@ def _tree(scene: Scene, groups: dict, backend: str):
         from .model.clearance import clearance
 
         groups["clearance"] = clearance(scene)
+    _refuse_non_finite(scene, groups)
     return tree({
         "title": f"harmbal analysis: {scene.name}",
         "engine": scene.name,
@@ -162,3 +176,34 @@ def _tree(scene: Scene, groups: dict, backend: str):
         "source_revision": source_revision(),
         "harmbal_conventions": CONVENTIONS,
     }, groups)
+
+
+#: Groups whose values are never NaN: elsewhere NaN marks "not applicable" (a two-point rod's inertia, the
+#: IMEP of a cylinder without gas, a joint a scene does not have).
+_NO_NAN = ("time", "orders", "stars")
+#: Largest variable checked whole [values]; a larger one not held at unit speed (a view of another) is skipped.
+_CHECKED_VALUES = 1 << 20
+
+
+def _refuse_non_finite(scene: Scene, groups: dict) -> None:
+    """The last net under the scene's documented ranges (docs/scenes.md,
+    "Ranges"), which keep every product the model forms finite: refuse a
+    result holding inf (or NaN where NaN marks nothing) rather than show it.
+    A variable over many speeds is checked through its unit-speed values
+    (never multiplied out); the ω² it is scaled by is within the speed range."""
+    for group, ds in groups.items():
+        for name, variable in ds.data_vars.items():
+            if variable.dtype.kind not in "fc":
+                continue
+            unit = unit_speed_values(variable)
+            if unit is None and variable.size > _CHECKED_VALUES:
+                continue
+            parts = [variable.values] if unit is None else [unit, speed_independent_values(variable)]
+            finite = np.isfinite if group in _NO_NAN else (lambda values: ~np.isinf(values))
+            if not all(finite(part).all() for part in parts if part is not None):
+                from .scene.schema import Problem, SceneError
+
+                raise SceneError([Problem(scene.source, "(results)", f"/{group}/{name}",
+                                          "holds inf or NaN: the scene's numbers are within their ranges but "
+                                          "combine beyond double precision; check engine.speed, the masses and "
+                                          "the lengths (docs/scenes.md, \"Ranges\")")])

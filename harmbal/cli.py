@@ -7,6 +7,7 @@ failure. Nothing is written unless the whole job succeeded.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import shlex
 import sys
 import warnings
@@ -188,7 +189,27 @@ def _parser() -> argparse.ArgumentParser:
         command.add_argument("--negligible", type=_negligible, metavar="FRACTION",
                              help="components at or below FRACTION of one cylinder's share of the load scale are "
                                   "negligible (default: the scene's [model] negligible, else 1e-3)")
+    for command in (run, star, design, check, rep, loads, sweep):
+        command.add_argument("--memory-budget", type=_budget_value("parse_size"), metavar="SIZE",
+                             help="refuse work estimated to need more memory, e.g. 16GiB or none (default: "
+                                  "$HARMBAL_MEMORY_BUDGET, else 4 GiB or half the available memory if less)")
+        command.add_argument("--time-budget", type=_budget_value("parse_duration"), metavar="DURATION",
+                             help="refuse work estimated to take longer, e.g. 2h or none (default: "
+                                  "$HARMBAL_TIME_BUDGET, else 10 min)")
     return parser
+
+
+def _budget_value(parser: str):
+    def parse(text: str) -> str:
+        from .model import budget
+
+        try:
+            getattr(budget, parser)(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return text
+
+    return parse
 
 
 def _bench(args) -> None:
@@ -218,6 +239,7 @@ def _run(args) -> None:
     if args.output is not None:
         _check_output(args.output, inputs=(args.scene,))
     scene = _load(args.scene, args.negligible)
+    _budget(scene, "run", output=args.output is not None)
     from .model.sampling import simulates_gas
 
     if (args.output is None and scene.verify is None and not scene.levers and not simulates_gas(scene)
@@ -277,6 +299,7 @@ def _loads(args) -> None:
     if args.output is not None:
         _check_output(args.output, (".nc",), "the loads are written as a netCDF archive (.nc)", inputs=(args.scene,))
     scene = _load(args.scene)
+    _budget(scene, "loads")
     from .analysis import scene_dataset
     from .labelled import tree
     from .reporting.tables import clearance_table, loads_table
@@ -348,6 +371,7 @@ def _sweep(args) -> None:
     scene = _load(args.scene, args.negligible)
     if max(args.orders) > scene.sampling.max_order:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
+    sets = _sweep_sets(args, scene)
     from .reporting.progress import ProgressBar
 
     # Only sweeps of many geometries take long enough to report (about 0.7 ms each).
@@ -360,7 +384,7 @@ def _sweep(args) -> None:
                              design=args.design)
         else:
             # The table and the figures need the amplitudes only: the phasors are kept for an archive.
-            ds = sweep(scene, dict(args.sets), mode="zip" if args.zip else "grid", orders=args.orders,
+            ds = sweep(scene, sets, mode="zip" if args.zip else "grid", orders=args.orders,
                        peaks=args.peaks, progress=bar, phasors=args.output is not None, chunks=args.chunks,
                        design=args.design)
     except SceneError as exc:
@@ -402,6 +426,37 @@ def _sweep(args) -> None:
             figure = sweep_figure(ds, keys[0])
         save_figure(figure, args.plot)
         print(f"\nwrote {args.plot}")
+
+
+def _sweep_sets(args, scene) -> dict:
+    """The ``--set`` values, made only once the sweep's estimate (its variants,
+    the values themselves) is within the budget."""
+    import math
+
+    sweep = {"orders": len(args.orders), "phasors": args.output is not None, "peaks": args.peaks,
+             "design": args.design, "chunks": args.chunks, "output": args.output is not None}
+    if args.monte_carlo is not None:
+        sweep.update(variants=args.monte_carlo, key="--monte-carlo", value=args.monte_carlo,
+                     values=args.monte_carlo * len(args.tol))
+    else:
+        counts = {key: len(values) for key, values in args.sets}
+        largest = max(counts, key=counts.get)
+        sweep.update(variants=max(counts.values()) if args.zip else math.prod(counts.values()), key=largest,
+                     value=f"{counts[largest]} values", values=sum(counts.values()),
+                     typed=sum(len(v) for _, v in args.sets if isinstance(v, _Range) and v.typed))
+    _budget(scene, "sweep", sweep=sweep)
+    return {key: values.values() if isinstance(values, _Range) else values for key, values in args.sets}
+
+
+def _budget(scene, command: str, **options) -> None:
+    """Refuse (exit 2) a command whose estimated memory or time exceeds the
+    budget (:func:`harmbal.model.budget.check_budget`), before any work."""
+    from .model.budget import check_budget
+
+    try:
+        check_budget(scene, command, **options)
+    except ValueError as exc:  # a SceneError, or a budget in the environment that is not a size
+        raise _BadInput(str(exc)) from None
 
 
 def _require(module: str, option: str) -> None:
@@ -455,12 +510,37 @@ def _dask_scheduler(spec: str | None):
             cluster.close()
 
 
-def _sweep_values(key: str, text: str) -> list:
-    """START:STOP:N (N values, SI numbers, or quantities in the units START is
-    typed in, kept as typed so that the sweep echoes them in those units) or
-    V1,V2,... (as given)."""
-    import numpy as np
+@dataclasses.dataclass(frozen=True)
+class _Range:
+    """START:STOP:N of ``--set``, made into values only after the sweep's
+    budget is checked (a list of 10⁸ values would exhaust the memory first)."""
 
+    start: float
+    stop: float
+    count: int
+    typed: str | None
+    factor: float
+
+    def __len__(self) -> int:
+        return self.count
+
+    def values(self):
+        """The N values: SI numbers (an array), or strings in the units START was typed in."""
+        import numpy as np
+
+        scale = 1.0 if self.typed is None else self.factor
+        values = np.linspace(self.start / scale, self.stop / scale, self.count)
+        # A grid across 0 holds it only to round-off (1e-17): make it 0, which every key's range admits.
+        values[np.abs(values) <= 1e-12 * max(abs(self.start), abs(self.stop)) / scale] = 0.0
+        if self.typed is None:
+            return values
+        return [f"{float(v)!r} {self.typed}" for v in values]
+
+
+def _sweep_values(key: str, text: str) -> list | _Range:
+    """START:STOP:N (N values, SI numbers, or quantities in the units START is
+    typed in, kept as typed so that the sweep echoes them in those units; a
+    :class:`_Range` until the budget is checked) or V1,V2,... (as given)."""
     from .scene.units import QuantityError
     from .studies.sweep import display_factor, quantity_value, typed_units
 
@@ -479,9 +559,7 @@ def _sweep_values(key: str, text: str) -> list:
     if count < 1 or (count == 1 and start != stop) or units != stop_units:
         raise argparse.ArgumentTypeError(f"{key}: {text!r}: N ≥ 1 values (1 only if START = STOP), START and STOP "
                                          "in the same units")
-    if typed is None:
-        return list(np.linspace(start, stop, count))
-    return [f"{float(v)!r} {typed}" for v in np.linspace(start / factor, stop / factor, count)]
+    return _Range(start, stop, count, typed, factor)
 
 
 def _number_or_text(text: str):
@@ -491,7 +569,7 @@ def _number_or_text(text: str):
         return text.strip()
 
 
-def _sweep_set(text: str) -> tuple[str, list]:
+def _sweep_set(text: str) -> tuple[str, list | _Range]:
     key, sep, spec = text.partition("=")
     if not sep or not key.strip() or not spec.strip():
         raise argparse.ArgumentTypeError(f"write KEY=START:STOP:N or KEY=V1,V2,...: {text!r}")
@@ -608,6 +686,7 @@ def _design(args) -> None:
     if args.output.resolve() == args.scene.resolve():
         raise _BadInput(f"{args.output}: would overwrite the input scene; choose another file")
     scene = _load(args.scene, args.negligible)
+    _budget(scene, "design")
     lever = isinstance(scene.design, LeverDesignRequest)
     if args.method != "exact" and not lever:
         raise _BadInput(f"--method {args.method}: only for lever balancers ([design.lever])")
@@ -665,11 +744,12 @@ def _write_scene(path: Path, text: str) -> None:
 def _verify(args) -> None:
     import dataclasses
 
-    from .balance.verify import verify
+    from .balance.verify import VerifyError, verify
     from .scene.requests import VerifyRequest
     from .reporting.tables import verify_table
 
     scene = _load(args.scene, args.negligible)
+    _budget(scene, "verify")
     request = scene.verify
     if args.orders:
         if max(args.orders) > scene.sampling.max_order:
@@ -682,7 +762,10 @@ def _verify(args) -> None:
         request = dataclasses.replace(request, cancel=args.cancel)
     if args.tolerance is not None:
         request = dataclasses.replace(request, tolerance=args.tolerance)
-    check = verify(scene, request)
+    try:
+        check = verify(scene, request)
+    except VerifyError as exc:  # e.g. elements whose loads are not finite
+        raise _BadInput(str(exc)) from None
     print(verify_table(check))
     for sentence in check.attrs["worsened"].splitlines():  # a warning: the exit status stays the verdict's
         warnings.warn(sentence)
@@ -721,6 +804,7 @@ def _stars(args) -> None:
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     scene = _load(args.scene, args.negligible)
+    _budget(scene, "stars")
     tree = analyse(scene)  # the same evaluation and free vectors as harmbal run
     ds = with_free_vectors(tree["stars"].ds, tree["orders"].ds)
     if args.orders and max(args.orders) > ds.sizes["order"] - 1:
@@ -770,8 +854,15 @@ def _report(args) -> None:
     else:
         from .analysis import analyse
 
-        tree = analyse(_load(args.input, args.negligible))
-    report(tree, args.output, log=args.log, css=css)
+        scene = _load(args.input, args.negligible)
+        _budget(scene, "report")
+        tree = analyse(scene)
+    from .scene import SceneError
+
+    try:
+        report(tree, args.output, log=args.log, css=css)
+    except SceneError as exc:  # the stored scene's refusal, or its report over the budget
+        raise _BadInput(str(exc)) from None
     print(f"wrote {args.output}")
 
 
@@ -830,12 +921,35 @@ def _one_line_warnings():
     return show
 
 
+@contextmanager
+def _limits(args):
+    """The budgets of ``--memory-budget`` and ``--time-budget`` while the command
+    runs; a budget in the environment that is not one is bad input."""
+    import os
+
+    memory, time = getattr(args, "memory_budget", None), getattr(args, "time_budget", None)
+    if memory is None and time is None and not os.environ.get("HARMBAL_MEMORY_BUDGET", "").strip() \
+            and not os.environ.get("HARMBAL_TIME_BUDGET", "").strip():
+        yield
+        return
+    from .model import budget
+
+    for name, parse in ((budget.MEMORY_ENV, budget.parse_size), (budget.TIME_ENV, budget.parse_duration)):
+        try:
+            if os.environ.get(name, "").strip():
+                parse(os.environ[name])
+        except ValueError as exc:
+            raise _BadInput(f"{name}: {exc}") from None
+    with budget.limits(memory=memory, time=time):
+        yield
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``harmbal`` command; returns the exit code."""
     args = _parser().parse_args(argv)
     args.command_line = "harmbal " + shlex.join(map(str, sys.argv[1:] if argv is None else argv))
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _limits(args):
             warnings.simplefilter("default")
             warnings.showwarning = _one_line_warnings()
             args.handler(args)
@@ -846,9 +960,32 @@ def main(argv: list[str] | None = None) -> int:
     except _Disagreement as exc:
         print(f"harmbal: error: {exc}", file=sys.stderr)
         return 1
+    except ValueError as exc:  # a SceneError from deep in the computation (a solver's refusal) is bad input too
+        from .balance.solvers import DesignError
+        from .scene import SceneError
+
+        if isinstance(exc, DesignError):  # e.g. a sweep variant's design refused as ill-conditioned
+            for line in str(exc).splitlines():
+                print(f"harmbal: error: {line}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        if not isinstance(exc, SceneError):
+            raise
+        # A model names the table it refuses ("[flywheel]"): name the scene file instead.
+        scene = getattr(args, "scene", None) or getattr(args, "input", None)
+        for p in exc.problems:
+            source = str(scene) if scene is not None and p.source.startswith("[") else p.source
+            print(f"harmbal: error: {dataclasses.replace(p, source=source)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except BrokenPipeError:  # output piped into head & co.: stop quietly
         sys.stderr.close()
         return 0
+    except OSError as exc:  # a result that could not be written (full disk …): one line, nothing was left behind
+        from .io.files import WriteError
+
+        if not isinstance(exc, WriteError):
+            raise
+        print(f"harmbal: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return 0
 
 

@@ -157,10 +157,15 @@ def test_lanchester_pair_cancels_the_inline_four_second_order_force():
     assert hb.verify_orders(scene).attrs["passed"] == "yes"
 
 
+def _signed(lo, hi):
+    # Within the documented ranges (docs/scenes.md, "Ranges"): hypothesis's 1e-300 near 0 is refused, so 0.
+    return st.floats(lo, hi).map(lambda v: 0.0 if abs(v) < 1e-12 else v)
+
+
 @settings(max_examples=25, deadline=None)
-@given(ratio=st.sampled_from([-3, -2, -1, 1, 2, 3]), u=st.floats(1e-4, 0.05), angle=st.floats(-3, 3),
-       x=st.floats(-0.3, 0.3), y=st.floats(-0.2, 0.2), z=st.floats(-0.2, 0.2), couple=st.floats(0, 0.05),
-       couple_angle=st.floats(-3, 3), clockwise=st.booleans())
+@given(ratio=st.sampled_from([-3, -2, -1, 1, 2, 3]), u=st.floats(1e-4, 0.05), angle=_signed(-3, 3),
+       x=_signed(-0.3, 0.3), y=_signed(-0.2, 0.2), z=_signed(-0.2, 0.2), couple=_signed(0, 0.05),
+       couple_angle=_signed(-3, 3), clockwise=st.booleans())
 def test_order_domain_agrees_with_time_domain(ratio, u, angle, x, y, z, couple, couple_angle, clockwise):
     data = copy.deepcopy(BASE)
     data["engine"]["rotation"] = "clockwise" if clockwise else "counterclockwise"

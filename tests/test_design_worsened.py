@@ -178,9 +178,13 @@ def test_verify_table_prints_round_off_as_0_and_negligible_as_tilde_0(two_stroke
     for key in (("1", "force", "y"), ("1", "force", "z"), ("peak", "force", "y")):
         assert rows[key][1] == "0", key  # the shaft and the counterweight cancel them: round-off
     assert "e-1" not in "".join(before + after for before, after in rows.values())
-    coarse = axis_rows(verify_table(hb.verify(two_stroke.scene.with_negligible(0.1))))
-    assert coarse[("1", "moment", "x")][0] == "~0"  # 6.4 N m is negligible at this level, 67.6 N m is not
-    assert coarse[("1", "moment", "x")][1] != "~0"
+    # The shaft 7 mm below the crank nearly cancels the engine's 6.4 N m roll: the rest is negligible at 0.1 of
+    # one cylinder's share of the engine's moment scale (4.6 N m; the levels never grow with the elements' loads).
+    check = hb.verify(hb.design(fixture(height_mm=-7.0)).scene.with_negligible(0.1))
+    coarse = axis_rows(verify_table(check))
+    level = float(check["moment_negligible_level"])
+    assert 0.0 < level < 6.3788
+    assert coarse[("1", "moment", "x")] == ("6.3788", "~0")
 
 
 def test_only_untargeted_free_growth_beyond_the_level_counts():

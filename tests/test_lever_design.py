@@ -901,7 +901,7 @@ BAD = [
     (lambda d: d["design"]["lever"].update(signal=["force_y"]), "design.lever.signal", "did you mean 'signals'"),
     (lambda d: d["design"]["lever"].update(weights=[1.0]), "design.lever.weights", "orders"),
     (lambda d: d["design"].update(objective="orders", orders=[1, 2]) or d["design"]["lever"].update(weights=[1.0]),
-     "design.lever.weights", "one non-negative number per order"),
+     "design.lever.weights", "number in [0, 1e6] per order"),
     (lambda d: d["design"].update(orders=[1]), "design.orders", 'objective = "orders"'),
     (lambda d: d["design"]["lever"].update(cg_x=["50 mm", "10 mm"]), "design.lever.cg_x", "low <= high"),
     (lambda d: d["design"]["lever"].update(mass=["3 kg", "1 kg"]), "design.lever.mass", "low <= high"),

@@ -145,3 +145,177 @@ def test_mathtext_in_a_name_is_drawn_as_written(tmp_path, capsys):
     assert main(["stars", str(scene), "--plot", str(plot)]) == 0
     assert "a $\\foo$ engine" in report.read_text(encoding="utf-8")
     assert "$\\foo$" in plot.read_text(encoding="utf-8")
+
+
+# -- trace files (issue 32, item 1) ------------------------------------------------------------------
+
+MEASURED = ROOT / "datasets" / "engines" / "tractor-3cyl-measured-gas.toml"
+GOOD_TRACE = ROOT / "datasets" / "engines" / "traces" / "tractor-full-load.csv"
+
+
+def _trace_scene(folder: Path, file: str) -> Path:
+    """The measured-gas tractor in ``folder``, its trace read from ``file`` (as written in the scene)."""
+    text = MEASURED.read_text(encoding="utf-8")
+    written = 'file = "traces/tractor-full-load.csv"'
+    assert text.count(written) == 1
+    folder.mkdir(parents=True, exist_ok=True)
+    scene = folder / "engine.toml"
+    scene.write_text(text.replace(written, f"file = {file!r}"), encoding="utf-8")
+    return scene
+
+
+def _trace_problem(scene: Path, **kwargs) -> str:
+    with pytest.raises(hb.SceneError) as info:
+        hb.load_scene(scene, **kwargs)
+    (problem,) = info.value.problems
+    assert problem.key == "gas.trace.file", str(problem)
+    return problem.rule
+
+
+@pytest.fixture(autouse=True)
+def _no_trace_roots(monkeypatch):
+    monkeypatch.delenv("HARMBAL_TRACE_ROOTS", raising=False)
+
+
+def test_a_trace_in_the_scenes_folder_tree_is_read_and_kept(tmp_path):
+    (tmp_path / "a" / "traces").mkdir(parents=True)
+    shutil.copy(GOOD_TRACE, tmp_path / "a" / "traces" / "full.csv")
+    scene = hb.load_scene(_trace_scene(tmp_path / "a", "traces/full.csv"))
+    assert scene.files == (("traces/full.csv", GOOD_TRACE.read_text(encoding="utf-8")),)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_fifo_trace_is_refused_without_blocking(tmp_path, capsys):
+    import signal
+
+    os.mkfifo(tmp_path / "trace.csv")
+    scene = _trace_scene(tmp_path, "trace.csv")
+    previous = signal.signal(signal.SIGALRM, lambda *_: pytest.fail("reading the trace blocked"))
+    signal.alarm(30)  # opening a FIFO for reading blocks until a writer comes: the alarm ends the test if it does
+    try:
+        assert main(["run", str(scene), "-o", str(tmp_path / "out.nc")]) == 2
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    line = _error(capsys)
+    assert "gas.trace.file" in line and "not a regular file" in line
+    assert not (tmp_path / "out.nc").exists()
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="no /dev/zero here")
+def test_dev_zero_is_refused_as_outside_and_as_a_device_when_allowed(tmp_path):
+    scene = _trace_scene(tmp_path, "/dev/zero")
+    assert "lies outside the scene's folder" in _trace_problem(scene)
+    assert "not a regular file" in _trace_problem(scene, trace_roots=["/dev"])
+    os.symlink("/dev/zero", tmp_path / "zero.csv")  # a link inside the folder to a device outside it
+    assert "lies outside" in _trace_problem(_trace_scene(tmp_path, "zero.csv"))
+
+
+def _outside_trace(tmp_path) -> tuple[Path, Path]:
+    """A scene in tmp_path/scene and a good trace in tmp_path/elsewhere."""
+    (tmp_path / "elsewhere").mkdir()
+    trace = tmp_path / "elsewhere" / "trace.csv"
+    shutil.copy(GOOD_TRACE, trace)
+    return tmp_path / "scene", trace
+
+
+def test_a_path_outside_the_scenes_folder_is_refused_saying_how_to_allow_it(tmp_path, monkeypatch):
+    folder, trace = _outside_trace(tmp_path)
+    (folder / "sub").mkdir(parents=True)
+    for written in (str(trace), "../elsewhere/trace.csv", "sub/../../elsewhere/trace.csv"):
+        rule = _trace_problem(_trace_scene(folder, written))
+        assert "lies outside the scene's folder" in rule and "HARMBAL_TRACE_ROOTS" in rule and "trace_roots" in rule
+    # allowed: by the keyword, or by the environment variable
+    scene = _trace_scene(folder, "../elsewhere/trace.csv")
+    assert hb.load_scene(scene, trace_roots=[trace.parent]).cylinders[0].gas is not None
+    monkeypatch.setenv("HARMBAL_TRACE_ROOTS", os.pathsep.join(["/nowhere", str(trace.parent)]))
+    assert hb.load_scene(scene).cylinders[0].gas is not None
+
+
+def test_a_link_escaping_the_folder_is_refused_one_inside_is_read(tmp_path):
+    folder, trace = _outside_trace(tmp_path)
+    folder.mkdir()
+    os.symlink(trace, folder / "escape.csv")
+    assert "(which is" in _trace_problem(_trace_scene(folder, "escape.csv"))
+    shutil.copy(GOOD_TRACE, folder / "real.csv")
+    os.symlink(folder / "real.csv", folder / "link.csv")
+    assert hb.load_scene(_trace_scene(folder, "link.csv")).cylinders[0].gas is not None
+
+
+def test_a_file_that_is_no_trace_is_refused_without_echoing_it(tmp_path, capsys):
+    secret = "root:x:0:0:SECRET-VALUE-1234:/root:/bin/bash\ndaemon:x:1:1:ANOTHER-SECRET:/usr/sbin\n"
+    (tmp_path / "passwd.csv").write_text(secret, encoding="utf-8")
+    scene = _trace_scene(tmp_path, "passwd.csv")
+    assert main(["run", str(scene)]) == 2
+    line = _error(capsys)
+    assert "gas.trace.file" in line and "line 2" in line and "is this a pressure trace?" in line
+    assert "SECRET" not in line and "x:0:0" not in line and "daemon" not in line
+    if Path("/etc/passwd").exists():  # the issue's case: refused as outside the folder, never opened
+        assert "lies outside" in _trace_problem(_trace_scene(tmp_path, "/etc/passwd"))
+
+
+def test_a_bad_token_in_a_trace_is_shown_shortened(tmp_path):
+    text = GOOD_TRACE.read_text(encoding="utf-8")
+    lines = text.splitlines()
+    lines[20] = "12.5," + "x" * 100
+    (tmp_path / "trace.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    rule = _trace_problem(_trace_scene(tmp_path, "trace.csv"))
+    assert "line 21" in rule and "'" + "x" * 20 + "…'" in rule and "x" * 21 not in rule
+
+
+@pytest.mark.parametrize("content, rule", [(b"\xff\xfe" + "angle".encode("utf-16-le"), "save it as UTF-8"),
+                                           (None, "larger than 16 MiB")])
+def test_oversized_or_undecodable_traces_are_refused(tmp_path, content, rule):
+    path = tmp_path / "trace.csv"
+    if content is None:
+        with path.open("wb") as file:
+            file.truncate((16 << 20) + 1)  # sparse: nothing is written, and nothing need be read
+    else:
+        path.write_bytes(content)
+    assert rule in _trace_problem(_trace_scene(tmp_path, "trace.csv"))
+
+
+# -- the scene stored in an archive is re-read without the file system (item 2) --------------------
+
+def test_a_report_of_an_archive_moved_away_from_its_deleted_trace(tmp_path, monkeypatch, capsys):
+    (tmp_path / "a" / "traces").mkdir(parents=True)
+    shutil.copy(GOOD_TRACE, tmp_path / "a" / "traces" / "full.csv")
+    _trace_scene(tmp_path / "a", "traces/full.csv")
+    monkeypatch.chdir(tmp_path / "a")
+    assert main(["run", "engine.toml", "-o", "out.nc"]) == 0
+    (tmp_path / "b").mkdir()
+    shutil.move(tmp_path / "a" / "out.nc", tmp_path / "b" / "out.nc")
+    shutil.rmtree(tmp_path / "a" / "traces")
+    monkeypatch.chdir(tmp_path / "b")
+    capsys.readouterr()
+    assert main(["report", "out.nc", "-o", "report.html"]) == 0, capsys.readouterr().err
+    assert "tractor" in (tmp_path / "b" / "report.html").read_text(encoding="utf-8")
+
+
+def test_given_files_are_the_only_files_read(tmp_path):
+    from harmbal.scene import scene_from_text
+
+    text = MEASURED.read_text(encoding="utf-8")
+    files = {"traces/tractor-full-load.csv": GOOD_TRACE.read_text(encoding="utf-8")}
+    nowhere = str(tmp_path / "no-such-folder" / "engine.toml")
+    read, from_disk = scene_from_text(text, nowhere, files=files).cylinders[0], hb.load_scene(MEASURED).cylinders[0]
+    assert read.gas.trace.pressure == from_disk.gas.trace.pressure and read.gas.trace.angle == from_disk.gas.trace.angle
+    tampered = text.replace('"traces/tractor-full-load.csv"', '"/dev/zero"')
+    with pytest.raises(hb.SceneError, match=r"gas\.trace\.file = '/dev/zero': not among the trace files stored"):
+        scene_from_text(tampered, nowhere, files=files)
+
+
+def test_a_tampered_or_old_archive_scene(tmp_path):
+    from harmbal.reporting.html import _stored_scene
+
+    scene = hb.load_scene(MEASURED)
+    attrs = hb.analyse(scene)["scene"].ds.attrs
+    tampered = dict(attrs, scene_toml=attrs["scene_toml"].replace('"traces/tractor-full-load.csv"', '"/dev/zero"'))
+    with pytest.raises(hb.SceneError, match="not among the trace files stored"):
+        _stored_scene(tampered)  # never opens /dev/zero
+    with pytest.raises(hb.SceneError, match="damaged"):
+        _stored_scene(dict(attrs, scene_files="[1, 2]"))
+    old = {k: v for k, v in attrs.items() if k != "scene_files"}  # before traces were stored: from the disk
+    assert _stored_scene(old).cylinders[0].gas == scene.cylinders[0].gas
+    with pytest.raises(hb.SceneError, match="file not found"):
+        _stored_scene(dict(old, source=str(tmp_path / "engine.toml")))

@@ -127,8 +127,16 @@ def test_problem_text_shows_source_key_value_and_rule(base_scene):
 
 @pytest.mark.parametrize("length", ["1e300 mm", "1e-300 mm", "1e308 m"])
 def test_lever_lengths_far_out_of_scale_are_reported_not_raised(length):
-    """The closure check works in numpy floats: a typo of 300 decades is a SceneError naming the key,
-    not an OverflowError or ZeroDivisionError."""
+    """A typo of 300 decades is a SceneError naming the key (out of the lengths' range), not an OverflowError or
+    ZeroDivisionError in the closure check."""
+    text = re.sub(r'coupler_length = "[^"]*"', f'coupler_length = "{length}"',
+                  (ENGINES / "lever-single.toml").read_text(encoding="utf-8"))
+    with pytest.raises(SceneError, match=r"lever_balancer\[1\]\.coupler_length = .*: out of range"):
+        scene_from_text(text, "lever.toml")
+
+
+@pytest.mark.parametrize("length", ["1e3 mm", "1e-3 mm"])
+def test_lever_lengths_far_off_but_in_range_fail_the_closure_check(length):
     text = re.sub(r'coupler_length = "[^"]*"', f'coupler_length = "{length}"',
                   (ENGINES / "lever-single.toml").read_text(encoding="utf-8"))
     with pytest.raises(SceneError, match=r"lever_balancer\[1\].*cannot close"):
@@ -139,7 +147,7 @@ def test_orders_beyond_the_sampling_harmbal_chooses_are_refused():
     """A Lanchester pair at ±10²⁰× or a max_order of 10⁹ cannot be sampled: a SceneError naming the key
     instead of a MemoryError at analysis."""
     text = (ENGINES / "inline-4-lanchester.toml").read_text(encoding="utf-8")
-    with pytest.raises(SceneError, match=r"balancer elements = 99999999999999999999: .* below 65536"):
+    with pytest.raises(SceneError, match=r"lanchester_pair\[1\]\.order = 99999999999999999999: must be at most 100"):
         scene_from_text(text.replace("order = 2\n", "order = 99999999999999999999\n", 1), "pair.toml")
     with pytest.raises(SceneError, match=r"sampling.max_order = 1000000000: must be at most 16384"):
         scene_from_text(text + "\n[sampling]\nmax_order = 1000000000\n", "orders.toml")

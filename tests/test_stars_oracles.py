@@ -526,8 +526,8 @@ def test_v_twin_common_pin_angles(gamma_deg, rotation):
 
 
 @SETTINGS
-@given(gamma=st.floats(0.05, math.pi), phi=st.floats(-math.pi, math.pi), lam=st.floats(0.1, 0.5),
-       rotation=st.sampled_from(["clockwise", "counterclockwise"]))
+@given(gamma=st.floats(0.05, math.pi), phi=st.floats(-math.pi, math.pi).map(lambda v: 0.0 if abs(v) < 1e-12 else v),
+       lam=st.floats(0.1, 0.5), rotation=st.sampled_from(["clockwise", "counterclockwise"]))
 def test_v_twin_common_pin_random(gamma, phi, lam, rotation):
     _check_v_twin(gamma, phi, lam, rotation)
 
@@ -537,7 +537,8 @@ def test_v_twin_common_pin_random(gamma, phi, lam, rotation):
 
 
 def _f(lo, hi):
-    return st.floats(lo, hi, allow_nan=False, allow_infinity=False)
+    # Within the documented ranges (docs/scenes.md, "Ranges"): hypothesis's 1e-300 near 0 is refused, so 0.
+    return st.floats(lo, hi, allow_nan=False, allow_infinity=False).map(lambda v: 0.0 if abs(v) < 1e-12 else v)
 
 
 @st.composite

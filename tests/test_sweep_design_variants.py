@@ -143,25 +143,37 @@ def test_a_nearly_rank_deficient_shaft_follows_design_on_both_sides_of_the_cutof
     # A couple shaft with planes 2.5e-8 mm apart: its moment is within a few times design's
     # rank cutoff (1e-10 of the weighted matrix's norm). The cutoff mixes the force and moment
     # weights, so heavier rod inertias (a larger moment scale) make design drop the shaft as
-    # round-off, lighter ones solve for it (absurd unbalances, but design's). The map holds
-    # the nominal scene's decision; the variants that could decide otherwise are solved directly.
+    # round-off, lighter ones solve for it, with unbalances of 1e8 times the engine's own, which
+    # design refuses as ill-conditioned (balance/sanity.py). The map holds the nominal scene's
+    # decision; the variants that could decide otherwise are solved directly, and refused as design
+    # refuses them.
     raw = _raw("inline-3")
     raw["design"]["moment_shaft"][0]["planes"] = ["0 mm", "2.5e-8 mm"]
     scene = hb.load_scene(copy.deepcopy(raw))
-    basis = linear_phasors(scene)
-    variants, slots = [], []
+    dbasis = design_basis(scene, linear_phasors(scene))
+    dropped, kept = [], []
     for inertia in (0.3, 1.0, 10.0, 30.0):
         for piston in (0.2, 1.0, 5.0):
             v = copy.deepcopy(raw)
             v["rod"]["inertia"] = scene.cylinders[0].rod.inertia * inertia
             v["piston"]["mass"] = scene.cylinders[0].piston.mass * piston
-            variants.append(hb.load_scene(v))
-            slots.append(slot_values(variants[-1])[1])
-    out = design_variants(design_basis(scene, basis), np.array(slots))
-    shaft = np.abs(out["unbalance"][:, -1])
-    assert out["direct"].any() and (shaft > 1e6).any() and (shaft < 1e-6).any()
-    for i, v in enumerate(variants):
+            variant = hb.load_scene(v)
+            try:
+                hb.design(variant)
+            except DesignError as exc:
+                assert "ill-conditioned" in str(exc) and "planes" in str(exc), exc
+                kept.append(variant)
+            else:
+                dropped.append(variant)
+    assert dropped and kept
+    slots = np.array([slot_values(v)[1] for v in dropped])
+    out = design_variants(dbasis, slots)
+    assert (np.abs(out["unbalance"][:, -1]) < 1e-6).all()
+    for i, v in enumerate(dropped):
         _assert_equals_design(out, i, v, huge=True)
+    for v in kept:
+        with pytest.raises(DesignError, match="ill-conditioned"):
+            design_variants(dbasis, slot_values(v)[1][None])
 
 
 def test_a_residual_at_the_balanced_tolerance_is_judged_by_the_variants_own_scale():

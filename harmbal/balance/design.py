@@ -47,9 +47,16 @@ from .solvers import LP_TOLERANCES, DesignError
 from ..scene.writer import (angle_text, blank_table, length_text, quantity_text, signed_angle_text, toml_tables,
                             with_engine, without_tables)
 from ..model.evaluate import moment_about, evaluate
-from ..model.sampling import choose_samples
-from .verify import CHECKED_ORDER, checked_orders, describe_component, made_worse_check, worsened_messages
+from .sanity import LEVERAGE_MIN, conditioning_error, engine_length, gross_force, size_error
+from .verify import (CHECKED_ORDER, checked_orders, describe_component, engine_scales, made_worse_check,
+                     residual_spectra, spectrum_components, verify_samples, worsened_messages)
 
+
+#: A Lanchester pair's two unbalances are written as one pair (one size, the
+#: mean) if they differ by at most this share: round-off of a standing vector's
+#: equal halves. The mean moves each shaft's load by at most half of it, far
+#: below the zero level even for elements at the size limit (sanity.py).
+PAIR_RTOL = 1e-14
 
 #: Sides of the polygon inscribed in the circle |P| ≤ max_unbalance that the
 #: linear programme uses (it gives away at most 1 − cos(π/64) = 0.12 %).
@@ -245,7 +252,18 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     ------
     DesignError
         If there is no request, it targets orders the scene does not keep,
-        or the scene does not simulate balancers.
+        the scene does not simulate balancers, its loads are not finite, or
+        the request is ill-conditioned (:mod:`harmbal.balance.sanity`:
+        candidates that act on a target only weakly, elements beyond 1000
+        times the engine's own unbalance), naming the keys to change.
+
+    Notes
+    -----
+    A target is cancelled when the residual of the elements as written is
+    of the class zero (ZERO_RTOL) of the engine's load scale without any
+    balancer element (:func:`harmbal.balance.verify.engine_scales`), checked
+    on the written scene as :func:`harmbal.verify` evaluates it: what design
+    calls cancelled verifies as zero.
     """
     import xarray as xr
 
@@ -255,65 +273,38 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
 
         return design_lever(scene, request, name=name, description=description)
     _check_request(scene, request)
-    kmax = scene.sampling.max_order
-    sense = scene.sense
-    ref = np.asarray(scene.reference_point, dtype=float)
-    engine = order_phasors(evaluate(scene))
-    force_scale = float(engine.peak_force.sum() + engine.crankshaft_peak_force)
-    moment_scale = float(engine.peak_moment.sum() + engine.crankshaft_peak_moment)
-    scales = {name: force_scale if group == "force" else moment_scale for name, group in COMPONENTS}
-    weights = {name: 1.0 / s if s > 0 else 1.0 for name, s in scales.items()}
-    targets = _targets(request)
-
-    # The engine, with the counterweights that the balance-factor rule sizes.
-    fixed = [c for c in request.candidates if c.balance_factor is not None]
-    free = [c for c in request.candidates if c.balance_factor is None]
-    values: dict[str, list[complex]] = {}
-    for c in fixed:
-        z = _factor_counterweights(scene, c, kmax, ref, weights)
-        values[c.label] = list(z[0::2] + 1j * z[1::2])
-    base_force, base_moment = _with_elements(engine.force, engine.moment, fixed, values, kmax, sense, ref)
-    b = _rows(_components(base_force, base_moment, sense), targets, weights)
-    unknowns = [u for c in free for u in c.unknowns()]
-    a = _matrix(unknowns, targets, kmax, sense, ref, weights)
-    z = _prioritised_least_squares(a, b, targets)
-
-    def residual(z):
-        return b + a @ z
-
-    ok = _cancelled(residual(z), targets)
-    if request.objective == "peak" and unknowns:
-        z = _peak_design(scene, request, free, unknowns, z, a, b, ok, ref, fixed=(fixed, values))
-        ok = _cancelled(residual(z), targets)
-
-    i = 0
-    for c in free:
-        n = len(c.unknowns())
-        values[c.label] = list(z[2 * i:2 * (i + n):2] + 1j * z[2 * i + 1:2 * (i + n):2])
-        i += n
-
-    # Predicted residual phasors at unit speed.
-    predicted = _components(*_with_elements(base_force, base_moment, free, values, kmax, sense, ref), sense)
-    for (k, component), cancelled in ok.items():
-        if cancelled:  # round-off, not a prediction: no noise phase
-            predicted[component][k] = 0
-    before = {n: zero_below_round_off(v, scales[n])
-              for n, v in _components(engine.force, engine.moment, sense).items()}
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # non-finite results are refused
+            plan = _plan(scene, request)
+            solution = _solve(scene, request, plan)
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        raise DesignError(f"{scene.source}: the design's linear algebra failed ({exc}): check the scene's masses "
+                          "and lengths and the [design] candidates' planes and positions") from None
+    error = size_error(scene.source, request.candidates, solution.written, plan.zero[0])
+    if error is not None:
+        raise error
+    values, ok, predicted = solution.values, solution.ok, solution.predicted
     w2 = scene.speeds[0] ** 2
-    messages = _messages(request, targets, ok, predicted, before, a, w2, scene.speeds[0])
-    messages += _height_hints(request, values, predicted, ok, (kmax, sense, ref), w2, ZERO_RTOL * moment_scale)
-    messages += _bound_messages(request, values)
+    before = {n: zero_below_round_off(v, plan.zero_scales[n])
+              for n, v in _components(plan.engine.force, plan.engine.moment, scene.sense).items()}
 
     blanks: dict[str, SizedBlank] = {}  # filled as the elements are written
-    text = _scene_text(scene, request, values, predicted, {"name": name, "description": description},
-                       negligible=ZERO_RTOL * force_scale, blanks=blanks)
-    try:
-        designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)"), source=scene.source)
-    except SceneError as exc:  # e.g. a candidate's label already names an element of the scene
-        raise DesignError(f"the designed scene does not load:\n{exc}") from None
-    designed = designed.with_negligible(scene.model.negligible)  # e.g. set by --negligible, not in the text
+    designed, text = _designed_scene(scene, request, values, predicted, {"name": name, "description": description},
+                                     plan.negligible, blanks)
     labels = {e.label for e in scene.shafts}
     elements = tuple(e for e in designed.shafts if e.label not in labels)
+    # The written scene judged as verify judges it: what design calls cancelled must verify as zero.
+    unit = evaluate(designed, verify_samples(designed))
+    confirmed = _confirm(unit, plan, ok, predicted)
+    if confirmed is not None:
+        ok, predicted = confirmed
+        designed, text = _designed_scene(scene, request, values, predicted, {"name": name,
+                                                                             "description": description},
+                                         plan.negligible, blanks)
+    messages = _messages(request, plan.targets, ok, predicted, before, w2, scene.speeds[0], solution)
+    messages += _height_hints(request, values, predicted, ok, plan.frame, w2,
+                              ZERO_RTOL * plan.zero_scales["roll"])
+    messages += _bound_messages(request, values)
 
     target_names = [n for n, _ in COMPONENTS]
     data = {
@@ -323,7 +314,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         "predicted": (("order", "component"), w2 * np.array([[predicted[n][k] for n in target_names]
                                                                 for k in request.orders]),
                       {"long_name": "residual phasor the design predicts", "units_by_component": "component_units"}),
-        "targeted": (("order", "component"), np.array([[(k, n) in targets for n in target_names]
+        "targeted": (("order", "component"), np.array([[(k, n) in plan.targets for n in target_names]
                                                         for k in request.orders])),
         "cancelled": (("order", "component"), np.array([[ok.get((k, n), False) for n in target_names]
                                                          for k in request.orders])),
@@ -331,7 +322,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
                       {"units": "kg m", "long_name": "designed unbalance (mass x radius)"}),
         "unbalance_angle": ("element", [float(np.angle(v)) for c in request.candidates for v in values[c.label]],
                             {"units": "rad", "long_name": "direction of the unbalance at theta = 0"}),
-        **_made_worse(engine, designed, targets),
+        **_made_worse(plan, designed, unit),
     }
     coords = {
         "order": ("order", list(request.orders), {"long_name": "order of crank speed"}),
@@ -340,7 +331,8 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         "element": ("element", [n for c in request.candidates for n in c.names()]),
         "speed": ((), scene.speeds[0], {"units": "rad/s"}),
         "rpm": ((), scene.speeds[0] * 30 / math.pi, {"units": "rpm"}),
-        CHECKED_ORDER: (CHECKED_ORDER, checked_orders(kmax), {"long_name": "order compared for components made worse"}),
+        CHECKED_ORDER: (CHECKED_ORDER, checked_orders(plan.frame[0]), {"long_name": "order compared for components "
+                                                                                    "made worse"}),
     }
     dataset = xr.Dataset(data, coords, {
         "title": f"harmbal balancer design: {scene.name}",
@@ -358,24 +350,208 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     return Design(designed, text, elements, dataset, tuple(messages), tuple(worsened))
 
 
-def _made_worse(engine, designed: Scene, targets) -> dict:
+@dataclass(frozen=True)
+class _Plan:
+    """What :func:`design` solves: the engine's order phasors, the row
+    ``weights`` (1 / the load scales of the scene as given, existing elements
+    included), the ``zero`` scales (force [N], moment [N m] at unit speed: the
+    engine alone, :func:`~harmbal.balance.verify.engine_scales`, the scale
+    verify judges by) and per component ``zero_scales``; the targets, the
+    ``negligible`` unbalance [kg m] below which an element is not written, and
+    ``frame`` = (max_order, sense, reference point)."""
+
+    engine: object
+    weights: dict[str, float]
+    zero: tuple[float, float]
+    zero_scales: dict[str, float]
+    targets: list[tuple[int, str]]
+    negligible: float
+    frame: tuple[int, int, np.ndarray]
+
+
+def _plan(scene: Scene, request: DesignRequest) -> _Plan:
+    """The engine's phasors and the scales that weigh and judge the design;
+    loads that are not finite are refused (they would give a design of NaN)."""
+    unit = evaluate(scene)
+    engine = order_phasors(unit)
+    force_scale = float(engine.peak_force.sum() + engine.crankshaft_peak_force)
+    moment_scale = float(engine.peak_moment.sum() + engine.crankshaft_peak_moment)
+    zero = engine_scales(scene, unit)
+    if not all(math.isfinite(v) for v in (force_scale, moment_scale, *zero)) or not (
+            np.isfinite(engine.force).all() and np.isfinite(engine.moment).all()):
+        raise DesignError(f"{scene.source}: the engine's loads are not finite (force scale {force_scale:.3g} N, "
+                          f"moment scale {moment_scale:.3g} N m at 1 rad/s): check the scene's masses, lengths and "
+                          "unbalances")
+    scales = {name: force_scale if group == "force" else moment_scale for name, group in COMPONENTS}
+    return _Plan(engine=engine, weights={name: 1.0 / s if s > 0 else 1.0 for name, s in scales.items()}, zero=zero,
+                 zero_scales={name: zero[0] if group == "force" else zero[1] for name, group in COMPONENTS},
+                 targets=_targets(request), negligible=ZERO_RTOL * force_scale,
+                 frame=(scene.sampling.max_order, scene.sense, np.asarray(scene.reference_point, dtype=float)))
+
+
+@dataclass(frozen=True)
+class _Solution:
+    """The solved design: each candidate's unknowns as solved (``values``) and
+    as written (``written``: those too small to write are 0), the targets
+    cancelled by the elements as written (``ok``) and by every unbalance
+    solved (``ok_solved``), the residual phasors (component -> (order,)) at
+    unit speed of the elements as written, 0 where cancelled, and the weighted
+    matrix ``a`` of the free unknowns."""
+
+    values: dict[str, list[complex]]
+    written: dict[str, list[complex]]
+    ok: dict[tuple[int, str], bool]
+    ok_solved: dict[tuple[int, str], bool]
+    predicted: dict[str, np.ndarray]
+    a: np.ndarray
+
+
+def _solve(scene: Scene, request: DesignRequest, plan: _Plan) -> _Solution:
+    """The unknowns of every candidate: the balance-factor counterweights by
+    their rule, the others by the prioritised least squares (or the peak LP),
+    after refusing an ill-conditioned request; then the residual of the
+    elements as written."""
+    (kmax, sense, ref), weights, targets = plan.frame, plan.weights, plan.targets
+    fixed = [c for c in request.candidates if c.balance_factor is not None]
+    free = [c for c in request.candidates if c.balance_factor is None]
+    values: dict[str, list[complex]] = {}
+    for c in fixed:  # the engine, with the counterweights that the balance-factor rule sizes
+        z = _factor_counterweights(scene, c, kmax, ref, weights)
+        values[c.label] = list(z[0::2] + 1j * z[1::2])
+    base_force, base_moment = _with_elements(plan.engine.force, plan.engine.moment, fixed, values, *plan.frame)
+    b = _rows(_components(base_force, base_moment, sense), targets, weights)
+    unknowns = [u for c in free for u in c.unknowns()]
+    _check_conditioning(scene, free, targets)
+    a = _matrix(unknowns, targets, kmax, sense, ref, weights)
+    z = _prioritised_least_squares(a, b, targets)
+    if request.objective == "peak" and unknowns:
+        ok = _cancelled(_residual_components(plan, fixed + free, {**values, **_unpack(free, z)}), targets, plan)
+        z = _peak_design(scene, request, free, unknowns, z, a, b, ok, ref, fixed=(fixed, values))
+        z = _onto_cancelled(z, a, b, ok)
+    values.update(_unpack(free, z))
+    if not all(np.isfinite(v) for vs in values.values() for v in vs):
+        raise DesignError(f"{scene.source}: the design is not finite: check the [design] candidates' planes and "
+                          "positions and the scene's masses")
+    written = _written(request.candidates, values, plan.negligible)
+    predicted = _residual_components(plan, request.candidates, written)
+    ok = _cancelled(predicted, targets, plan)
+    ok_solved = _cancelled(_residual_components(plan, request.candidates, values), targets, plan)
+    for (k, component), cancelled in ok.items():
+        if cancelled:  # round-off, not a prediction: no noise phase
+            predicted[component][k] = 0
+    return _Solution(values, written, ok, ok_solved, predicted, a)
+
+
+def _unpack(free, z: np.ndarray) -> dict[str, list[complex]]:
+    """The complex unknowns of each free candidate from the real vector z."""
+    values, i = {}, 0
+    for c in free:
+        n = len(c.unknowns())
+        values[c.label] = list(z[2 * i:2 * (i + n):2] + 1j * z[2 * i + 1:2 * (i + n):2])
+        i += n
+    return values
+
+
+def _written(candidates, values, negligible: float) -> dict[str, list[complex]]:
+    """The unknowns as the scene text writes them: 0 where every placement's
+    unbalance is at most ``negligible`` [kg m] (left out, :func:`_elements_toml`)."""
+    return {c.label: [v if max(abs(p.coefficient * v) for p in u) > negligible else 0j
+                      for u, v in zip(c.unknowns(), values[c.label])] for c in candidates}
+
+
+def _residual_components(plan: _Plan, candidates, values) -> dict[str, np.ndarray]:
+    """The components (name -> (order,)) at unit speed of the engine with the
+    candidates at ``values``."""
+    return _components(*_with_elements(plan.engine.force, plan.engine.moment, candidates, values, *plan.frame),
+                       plan.frame[1])
+
+
+def _onto_cancelled(z: np.ndarray, a: np.ndarray, b: np.ndarray, ok) -> np.ndarray:
+    """``z`` moved the least onto the cancelled targets' rows: the linear
+    programme meets its equality constraints only to its feasibility tolerance
+    (1e-10 of the weighted rows), the zero level itself; what design calls
+    cancelled must be cancelled to round-off."""
+    keep = [r for r, t in enumerate(ok) if ok[t]]
+    if not keep:
+        return z
+    rows = keep + [r + len(ok) for r in keep]
+    step = np.linalg.lstsq(a[rows], b[rows] + a[rows] @ z, rcond=RANK_RTOL)[0]
+    return z - step
+
+
+def _designed_scene(scene: Scene, request: DesignRequest, values, predicted, engine: dict, negligible: float,
+                    blanks: dict) -> tuple[Scene, str]:
+    """The output scene, loaded from its text (the judge of what is written), and the text."""
+    text = _scene_text(scene, request, values, predicted, engine, negligible=negligible, blanks=blanks)
+    try:
+        files = dict(scene.files) or None  # the trace files the scene read: not read again
+        designed = dataclasses.replace(scene_from_text(text, f"{scene.source} (designed)", files=files),
+                                       source=scene.source)
+    except SceneError as exc:  # e.g. a candidate's label already names an element of the scene
+        raise DesignError(f"the designed scene does not load:\n{exc}") from None
+    return designed.with_negligible(scene.model.negligible), text  # e.g. set by --negligible, not in the text
+
+
+def _confirm(unit, plan: _Plan, ok, predicted):
+    """The targets and predictions judged on the written scene's exact model
+    (``unit``, evaluated as :func:`harmbal.verify` evaluates it, the residual
+    by its very code): a target design cancelled whose exact residual is not
+    of the class zero is not cancelled, and a prediction the exact residual
+    leaves more than half the zero level from is replaced by the exact
+    residual (text, angles rounded to the text's precision, the order
+    domain's sampling). None if nothing changes (the rule; the elements as
+    written are what the order domain solved)."""
+    kmax, sense, _ = plan.frame
+    exact = dict(zip([n for n, _ in COMPONENTS], spectrum_components(residual_spectra(unit, kmax)[0], sense)))
+    ok, predicted, changed = dict(ok), {n: v.copy() for n, v in predicted.items()}, False
+    for (k, name), cancelled in ok.items():
+        e, zero = exact[name][k], ZERO_RTOL * plan.zero_scales[name]
+        if cancelled and classify(abs(e), plan.zero_scales[name], 0.0) != ZERO:
+            ok[(k, name)], predicted[name][k], changed = False, e, True
+        elif not cancelled and abs(e - predicted[name][k]) > zero / 2:
+            predicted[name][k], changed = e, True
+    return (ok, predicted) if changed else None
+
+
+def _check_conditioning(scene: Scene, free, targets) -> None:
+    """Refuse a request whose least-squares system has a weak direction: a
+    kept singular value below LEVERAGE_MIN of the system whose unknowns are
+    measured by their gross force and whose moment rows are divided by the
+    engine's length (:mod:`harmbal.balance.sanity`). Independent of the
+    engine's loads and masses."""
+    kmax, sense, ref = scene.sampling.max_order, scene.sense, np.asarray(scene.reference_point, dtype=float)
+    unknowns = [u for c in free for u in c.unknowns()]
+    if not unknowns or not targets:
+        return
+    length = engine_length(scene)
+    weights = {name: 1.0 if group == "force" else 1.0 / length if length > 0 else 1.0 for name, group in COMPONENTS}
+    gross = np.repeat([gross_force(u) for u in unknowns], 2)
+    a = _matrix(unknowns, targets, kmax, sense, ref, weights) / np.where(gross > 0, gross, 1.0)
+    owner = [i for i, c in enumerate(free) for _ in c.unknowns()]
+    stages, _ = _stages(a, targets)
+    for stage in stages:
+        if stage.rank and stage.singular[stage.rank - 1] < LEVERAGE_MIN:
+            raise conditioning_error(scene.source, free, owner, targets, stage, stage.rank - 1)
+
+
+def _made_worse(plan: _Plan, designed: Scene, unit) -> dict:
     """The made-worse check of every order and component at the design
     speed: the engine's order phasors (with the elements it already has)
-    against those of the designed scene, judged by the designed scene's
-    load scales on verify's samples (the scales :func:`harmbal.verify`
-    judges it by: the bodies' peaks are sampled), with ``force_scale`` [N]
-    and ``moment_scale`` [N m]."""
-    after = order_phasors(evaluate(designed, max(choose_samples(designed), PEAK_SAMPLES)))
+    against those of the designed scene on verify's samples (``unit``),
+    judged by the engine's load scales (without any balancer element, the
+    scales :func:`harmbal.verify` judges by), with ``force_scale`` [N] and
+    ``moment_scale`` [N m]."""
+    after = order_phasors(unit)
     w2 = designed.speeds[0] ** 2
-    scales = (w2 * float(after.peak_force.sum() + after.crankshaft_peak_force),
-              w2 * float(after.peak_moment.sum() + after.crankshaft_peak_moment))
+    scales = (w2 * plan.zero[0], w2 * plan.zero[1])
     names = [n for n, _ in COMPONENTS]
     before, after = (w2 * np.array([_components(p.force, p.moment, designed.sense)[n] for n in names])[:, 1:].T
-                     for p in (engine, after))  # (order 1 … max_order, component)
-    targeted = np.array([[(k, n) in targets for n in names] for k in checked_orders(designed.sampling.max_order)])
+                     for p in (plan.engine, after))  # (order 1 … max_order, component)
+    targeted = np.array([[(k, n) in plan.targets for n in names]
+                         for k in checked_orders(designed.sampling.max_order)])
     return {**made_worse_check(before, after, targeted, scales, len(designed.cylinders), designed.model.negligible),
-            **{f"{kind}_scale": ((), s, {"units": units, "long_name": f"sum of single-body peak {kind}s of the "
-                                                                       "designed scene"})
+            **{f"{kind}_scale": ((), s, {"units": units, "long_name": f"sum of single-body peak {kind}s without "
+                                                                       "balancer elements"})
                for kind, units, s in (("force", "N", scales[0]), ("moment", "N m", scales[1]))}}
 
 
@@ -442,19 +618,23 @@ def _prioritised_least_squares(a: np.ndarray, b: np.ndarray, targets) -> np.ndar
     return z - null @ (null.T @ z)  # the smallest unbalances among the minimisers
 
 
-def _cancelled(residual: np.ndarray, targets) -> dict[tuple[int, str], bool]:
-    """Targets whose (weighted) residual is zero up to round-off."""
-    n = len(targets)
-    size = np.hypot(residual[:n], residual[n:])
-    zero = classify(size, 1.0, 0.0) == ZERO  # the rows are divided by the load scales: the scale is 1
-    return {t: bool(z) for t, z in zip(targets, zero)}
+def _cancelled(components: dict[str, np.ndarray], targets, plan: _Plan) -> dict[tuple[int, str], bool]:
+    """Targets whose residual (``components``: name -> (order,) at unit speed)
+    is of the class zero of the engine's load scale: the classification and
+    the scale :func:`harmbal.verify` judges by."""
+    return {(k, name): bool(classify(abs(components[name][k]), plan.zero_scales[name], 0.0) == ZERO)
+            for k, name in targets}
 
 
-def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str]:
+def _messages(request, targets, ok, predicted, before, w2, omega, solution: _Solution) -> list[str]:
     """In words, each target left: cannot be cancelled (no candidate acts on
-    it: which element would) or only partly (too few degrees of freedom)."""
+    it: which element would), only partly (too few degrees of freedom), only
+    by unbalances too small to write, or not in the exact model of the
+    written scene although in the order domain (``ok`` against
+    ``solution.ok``)."""
     rpm = omega * 30 / math.pi
     n = len(targets)
+    a = solution.a
     messages = []
     for row, (k, name) in enumerate(targets):
         if ok[(k, name)]:
@@ -462,6 +642,16 @@ def _messages(request, targets, ok, predicted, before, a, w2, omega) -> list[str
         units = "N" if name.startswith("force") else "N m"
         left = abs(predicted[name][k]) * w2
         was = abs(before[name][k]) * w2
+        if solution.ok[(k, name)]:
+            messages.append(f"{describe_component(k, name)} is left at {left:.4g} {units} at {rpm:.6g} rpm in the "
+                            "exact model of the scene as written, though the order-domain design cancels it: "
+                            "refine [sampling] (accuracy or samples_per_rev)")
+            continue
+        if solution.ok_solved[(k, name)]:
+            messages.append(f"{describe_component(k, name)} is left at {left:.4g} {units} at {rpm:.6g} rpm: the "
+                            "unbalances that would cancel it are too small to write (at most 1e-10 of the load "
+                            "scale), so the scene as written leaves it")
+            continue
         acting = np.hypot(a[row], a[row + n]) > ZERO_RTOL * np.abs(a).max(initial=0.0)
         fixed = [c.label for c in request.candidates if c.balance_factor is not None]
         what = describe_component(k, name)
@@ -632,7 +822,8 @@ def _elements_toml(request: DesignRequest, values, negligible: float,
                 if abs(v) > negligible:
                     note(label, v, f"from throw 1, x = {x * 1e3:.6g} mm")
                     tables["counterweight"].append({"label": label, **unbalance(c, label, v, x)})
-        elif c.kind == "lanchester_pair" and abs(abs(vs[0]) - abs(vs[1])) <= 1e-9 * max(map(abs, vs)):
+        elif c.kind == "lanchester_pair" and min(map(abs, vs)) > negligible and (
+                abs(abs(vs[0]) - abs(vs[1])) <= PAIR_RTOL * max(map(abs, vs))):
             # Equal unbalances: a pair with direction α and phasing δ.
             plus, minus = vs
             phase = float(np.angle(plus / minus)) / 2

@@ -401,7 +401,7 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     -------
     LeverDesign
     """
-    from ..scene import scene_from_text
+    from ..scene import SceneError, scene_from_text
     from ..views.time import simulate
 
     request = request or scene.design
@@ -431,12 +431,20 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     evaluations = cycles = 0
     clock = time.perf_counter()
     if method == "exact":
-        if request.objective == "orders":
-            p = _solve_qp(problem, request.orders, request.weights, g, h, scale)
-            used = "qp"
-        else:
-            p = _solve_lp(problem, request.objective, g, h, scale)
-            used = "lp"
+        try:
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # a weight not finite is refused
+                if request.objective == "orders":
+                    p = _solve_qp(problem, request.orders, request.weights, g, h, scale)
+                    used = "qp"
+                else:
+                    p = _solve_lp(problem, request.objective, g, h, scale)
+                    used = "lp"
+        except (np.linalg.LinAlgError, FloatingPointError) as exc:
+            raise DesignError(f"{scene.source}: the lever design's linear algebra failed ({exc}): check the lever "
+                              "balancer's geometry and masses and design.lever's bounds") from None
+        if not np.isfinite(p).all():
+            raise DesignError(f"{scene.source}: the lever design gives a weight that is not finite: check the lever "
+                              "balancer's geometry and masses and design.lever's bounds")
     elif method == "compass":
         black_box = _black_box(scene, lever, request, problem.theta)
 
@@ -465,7 +473,10 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     scale_value = float(np.abs(problem.rest).max() + np.abs(problem.basis @ p).max()) * w2
     tolerance = 1e-9 * (scale_value**2 if request.objective == "orders" else scale_value) * len(request.signals)
     text = _scene_text(scene, index, designed, request, used, (value_start, value), name, description)
-    out = scene_from_text(text, f"{scene.source} (designed)")
+    try:
+        out = scene_from_text(text, f"{scene.source} (designed)", files=dict(scene.files) or None)
+    except SceneError as exc:  # e.g. a weight outside the reader's ranges
+        raise DesignError(f"the designed scene does not load:\n{exc}") from None
     messages = []
     if weight[0] == 0.0:
         messages.append("the optimum is no weight at all: the lever balancer makes the criterion worse")

@@ -14,8 +14,12 @@ products.
 What is not affine is judged per variant as design judges it. Design
 weights its rows by 1/force_scale and 1/moment_scale (sums of the single
 bodies' peak loads over the sampled revolution: not linear in the masses);
-the scales decide which components are cancelled, which unbalances are too
-small to be written, and which singular values are round-off. Within one
+the scales decide which unbalances are too small to be written, and which
+singular values are round-off; the engine's scales (the same without the
+balancer elements) which components are cancelled, with the elements as
+written, and which designs are refused as ill-conditioned (elements beyond
+ELEMENT_LIMIT times the engine's own unbalance, :mod:`.sanity`; the leverage
+depends on the geometry only and is checked once, by :func:`design_basis`). Within one
 priority stage the weight is uniform, so the stage's solution does not
 depend on it, but its rank cutoff does (:func:`_rank_may_differ`): the maps
 hold the rank decisions of the scene they were built from, and a variant
@@ -26,6 +30,7 @@ decisions differ between cheap bounds of them (:func:`_scale_bounds`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +43,7 @@ from ..scene import Scene
 from ..scene.requests import COMPONENTS, Candidate, DesignRequest, LeverDesignRequest
 from .design import (
     RANK_RTOL,
+    _check_conditioning,
     _check_request,
     _components,
     _element_phasors,
@@ -49,6 +55,7 @@ from .design import (
     _stages,
     _targets,
 )
+from .sanity import ELEMENT_LIMIT, gross_force, size_error
 from .solvers import DesignError
 
 #: Variants whose sampled cylinder loads are held at a time (bounds the memory of :func:`_peaks`).
@@ -120,6 +127,8 @@ class DesignBasis:
     placement_moment: np.ndarray
     bounds: _PeakBounds
     solver: _Solver
+    candidates: tuple[Candidate, ...] = ()
+    gross: np.ndarray | None = None  # (element,) gross force per kg m of each unknown (sanity.gross_force)
 
 
 def _refuse_nonlinear(scene: Scene, request: DesignRequest | LeverDesignRequest | None) -> None:
@@ -294,6 +303,24 @@ def design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest | No
     names, _ = slot_values(scene)
     if names != basis.slots:
         raise ValueError(f"{scene.source}: the basis has other slots than the scene: {basis.slots} != {names}")
+    if not all(np.isfinite(a).all() for a in (basis.values, basis.force, basis.moment, basis.constant_force,
+                                              basis.constant_moment)):
+        raise DesignError(f"{scene.source}: the engine's loads are not finite: check the scene's masses, lengths "
+                          "and unbalances")
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # a map not finite is refused below
+            made = _design_basis(scene, basis, request, names)
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        raise DesignError(f"{scene.source}: the design's linear algebra failed ({exc}): check the scene's masses "
+                          "and lengths and the [design] candidates' planes and positions") from None
+    if not np.isfinite(made.unknowns).all():
+        raise DesignError(f"{scene.source}: the design is not finite: check the [design] candidates' planes and "
+                          "positions and the scene's masses")
+    return made
+
+
+def _design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest, names) -> DesignBasis:
+    """:func:`design_basis` once the request is known to be linear and the basis finite."""
     frame = (scene.sampling.max_order, scene.sense, np.asarray(scene.reference_point, dtype=float))
     bounds = _peak_bounds(scene)
     force_scale, moment_scale = (float(s[0]) for s in _scales(bounds, basis.values[None]))
@@ -311,6 +338,7 @@ def design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest | No
             z[:, columns[c.label]] = _factor_map(scene, c, weights)
     free = np.array([j for c in request.candidates if c.balance_factor is None for j in columns[c.label]], dtype=int)
     b = _rows({n: engine[n] + z @ response[n] for n in engine}, targets, dict.fromkeys(weights, 1.0))
+    _check_conditioning(scene, [c for c in request.candidates if c.balance_factor is None], targets)
     z[:, free], solver = _free_map(request, targets, b, free, weights, frame)
 
     placements = [(e, p) for e, u in enumerate(unknowns) for p in u]
@@ -321,7 +349,8 @@ def design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest | No
         engine=_component_array(engine, request.orders), response=_component_array(response, request.orders),
         placement_unknown=np.array([e for e, _ in placements], dtype=int),
         placement_coefficient=np.array([p.coefficient for _, p in placements]),
-        placement_force=placement_force, placement_moment=placement_moment, bounds=bounds, solver=solver)
+        placement_force=placement_force, placement_moment=placement_moment, bounds=bounds, solver=solver,
+        candidates=tuple(request.candidates), gross=np.array([gross_force(u) for u in unknowns]))
 
 
 def _columns(candidates) -> dict[str, np.ndarray]:
@@ -383,9 +412,57 @@ def _solve(solver: _Solver, values: np.ndarray, force_scale: float, moment_scale
     return _prioritised_least_squares(w[:, None] * solver.a, w * (solver.b @ values), solver.targets)
 
 
+def _without_elements(bounds: _PeakBounds) -> _PeakBounds:
+    """The bounds of the engine alone: without the balancer elements' constant share."""
+    return dataclasses.replace(bounds, constant_force=0.0, constant_moment=0.0)
+
+
+def _engine_scales(bounds: _PeakBounds, slots: np.ndarray, exact: np.ndarray, force_low, force_high, moment_low,
+                   moment_high, residual: np.ndarray, dbasis: "DesignBasis") -> tuple[np.ndarray, np.ndarray]:
+    """The engine's force and moment scales of each variant (design's and
+    verify's ``engine_scales``: :func:`_scales` without the balancer
+    elements), computed for the ``exact`` variants and those whose
+    cancellations differ between the bounds (the weights' bounds less the
+    elements' constant share); the upper bounds elsewhere, which decide alike."""
+    low = (force_low - bounds.constant_force, moment_low - bounds.constant_moment)
+    high = (force_high - bounds.constant_force, moment_high - bounds.constant_moment)
+    differs = (_cancelled(dbasis, residual, *low) != _cancelled(dbasis, residual, *high)).any(axis=(1, 2))
+    need = exact | differs
+    force, moment = high[0].copy(), high[1].copy()
+    force[need], moment[need] = _scales(_without_elements(bounds), slots[need])
+    return force, moment
+
+
+def _check_sizes(dbasis: "DesignBasis", unbalance: np.ndarray, slots: np.ndarray, force_low: np.ndarray) -> None:
+    """Refuse, as :func:`harmbal.design` refuses each variant, designed
+    unbalances (as written) whose gross force exceeds ELEMENT_LIMIT × the
+    variant's engine force scale, naming the first such variant; the scale
+    is computed only where its lower bound ``force_low`` does not clear it."""
+    if dbasis.gross is None or not dbasis.candidates:
+        return
+    size = np.abs(unbalance) * dbasis.gross
+    beyond = (size > ELEMENT_LIMIT * force_low[:, None]).any(axis=1)
+    if not beyond.any():
+        return
+    engine_force = np.array(force_low, dtype=float)
+    engine_force[beyond] = _scales(_without_elements(dbasis.bounds), slots[beyond])[0]
+    beyond = (size > ELEMENT_LIMIT * engine_force[:, None]).any(axis=1)
+    if not beyond.any():
+        return
+    v = int(np.flatnonzero(beyond)[0])
+    start, values = 0, {}
+    for c in dbasis.candidates:
+        count = len(c.unknowns())
+        values[c.label] = list(unbalance[v, start:start + count])
+        start += count
+    error = size_error(f"{dbasis.source} (variant {v})", dbasis.candidates, values, float(engine_force[v]))
+    if error is not None:
+        raise error
+
+
 def _cancelled(dbasis: DesignBasis, residual: np.ndarray, force_scale, moment_scale) -> np.ndarray:
     """Design's ``_cancelled`` per variant: targeted and at most BALANCED_RTOL
-    × the variant's scale."""
+    × the variant's engine scale (without the balancer elements)."""
     scale = np.stack([force_scale if group == "force" else moment_scale for _, group in COMPONENTS], axis=-1)
     targeted = np.array([[(k, n) in dbasis.solver.targets for n in dbasis.components] for k in dbasis.orders])
     return targeted & (np.abs(residual) * _weight(scale)[:, None, :] <= BALANCED_RTOL)
@@ -453,20 +530,25 @@ def design_variants(dbasis: DesignBasis, slots: np.ndarray, orders=None) -> dict
     for v in np.flatnonzero(direct):
         z[v, solver.free] = _solve(solver, values[v], force_scale[v], moment_scale[v])
     unbalance = z[:, 0::2] + 1j * z[:, 1::2]
-    residual = _matmul(values, dbasis.engine) + _matmul(z, dbasis.response)
 
-    cancel_differs = _cancelled(dbasis, residual, force_low, moment_low) != _cancelled(dbasis, residual, force_high,
-                                                                                     moment_high)
-    write_differs = _written(dbasis, unbalance, force_low) != _written(dbasis, unbalance, force_high)
-    unsure = ~exact & (cancel_differs.any(axis=(1, 2)) | write_differs.any(axis=1))
+    unsure = ~exact & (_written(dbasis, unbalance, force_low) != _written(dbasis, unbalance, force_high)).any(axis=1)
     force_scale[unsure], moment_scale[unsure] = _scales(dbasis.bounds, slots[unsure])
-    cancelled = _cancelled(dbasis, residual, force_scale, moment_scale)
+    written = _written(dbasis, unbalance, force_scale)  # (variant, placement)
+    kept = np.zeros(unbalance.shape, dtype=bool)  # (variant, unknown): any of its placements written
+    for column, unknown in enumerate(dbasis.placement_unknown):
+        kept[:, unknown] |= written[:, column]
+    # Design's residual and "cancelled" are those of the elements as written, judged by the engine's scales.
+    residual = _matmul(values, dbasis.engine) + _matmul(z * np.repeat(kept, 2, axis=1), dbasis.response)
+    engine_force, engine_moment = _engine_scales(dbasis.bounds, slots, exact | unsure, force_low, force_high,
+                                                 moment_low, moment_high, residual, dbasis)
+    cancelled = _cancelled(dbasis, residual, engine_force, engine_moment)
     residual[cancelled] = 0  # round-off, not a prediction (as design writes it)
+    _check_sizes(dbasis, unbalance * kept, slots, force_low - dbasis.bounds.constant_force)
 
     force, moment = combine(dbasis.basis, slots, orders)
     picked = slice(None) if orders is None else orders
     columns = (2 * dbasis.placement_unknown[:, None] + np.arange(2)).ravel()
-    parts = z[:, columns] * np.repeat(_written(dbasis, unbalance, force_scale), 2, axis=1)
+    parts = z[:, columns] * np.repeat(written, 2, axis=1)
     force += _matmul(parts, np.ascontiguousarray(dbasis.placement_force[..., picked]))
     moment += _matmul(parts, np.ascontiguousarray(dbasis.placement_moment[..., picked]))
     return {"unbalance": unbalance, "residual": residual, "cancelled": cancelled, "force": force, "moment": moment,

@@ -10,6 +10,14 @@ passes if they agree within the tolerance; the loads without any balancer
 elements give the "before" values, the peaks over the revolution per axis and
 the percentage removed.
 
+Every level is relative to the *engine's* load scale (:func:`engine_scales`:
+the sums of the single bodies' peak loads without any balancer element), never
+to the elements' own loads: elements a thousand times too large would
+otherwise widen the tolerance they are judged by. The tolerance is the class
+*zero* of that scale (ZERO_RTOL, the level :func:`harmbal.design` calls a
+target cancelled by, on the same scale) plus the aliasing estimate, so the two
+cannot disagree about "cancelled".
+
 Every order up to the scene's ``max_order`` and every component is also
 compared before and after: a component that is not targeted and that the
 elements make worse is named (:func:`made_worse_variables`,
@@ -29,17 +37,50 @@ from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO_RTOL, classify, negligibl
                                zero_below_round_off)
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
-from ..views.stars import VERIFY_RTOL
 from ..views.time import body_aliasing
 
 
 class VerifyError(ValueError):
-    """Nothing to verify: no ``[verify]`` table and no orders given."""
+    """Nothing to verify (no ``[verify]`` table and no orders given), or
+    balancer elements whose loads are not finite."""
 
 
-def _components(spectrum: np.ndarray, sense: int) -> np.ndarray:
+def engine_scales(scene: Scene, unit=None) -> tuple[float, float]:
+    """The engine's load scales at unit speed: the sums of the single bodies'
+    peak force [N] and moment [N m] *without any balancer element* (the
+    cylinders with their throw unbalances, and the crankshaft's own
+    unbalances), over the scene's own sampling.
+
+    ``unit`` is :func:`harmbal.model.evaluate.evaluate` of ``scene`` at its
+    own sampling (evaluated here if not given); the cylinders' peaks do not
+    depend on the elements, so a scene and the same scene with designed
+    elements have the same engine scales. This is the scale that judges what
+    is zero in :func:`verify` and :func:`harmbal.design` alike.
+    """
+    unit = evaluate(scene) if unit is None else unit
+    crank = sum(u.unbalance for u in scene.crankshaft_unbalances) if "rotating" in scene.model.effects else 0.0
+    return (float(unit.peak_force.sum() + crank), float(unit.peak_moment.sum() + unit.crankshaft_lever_arm * crank))
+
+
+def residual_spectra(unit, max_order: int, backend: str = "scipy") -> np.ndarray:
+    """The order phasors (with/without the elements, force/moment, axis,
+    order 0 … ``max_order``) of an evaluation's totals about its reference
+    point: the exact residual :func:`verify` judges (and :func:`harmbal.design`
+    checks its written scene by, with this very code)."""
+    after, before = np.stack(unit.total()), np.stack(unit.total(elements=False))  # (force/moment, axis, angle)
+    return phasors(np.stack([after, before]), backend)[..., : max_order + 1]
+
+
+def verify_samples(scene: Scene) -> int:
+    """Samples per revolution of :func:`verify`'s evaluation: the scene's,
+    at least PEAK_SAMPLES (peaks over the revolution need fine sampling)."""
+    return max(choose_samples(scene), PEAK_SAMPLES)
+
+
+def spectrum_components(spectrum: np.ndarray, sense: int) -> np.ndarray:
     """Per component of :data:`COMPONENTS`, the phasors (component, order) of
-    one force and moment spectrum (force/moment, axis, order)."""
+    one force and moment spectrum (force/moment, axis, order), e.g. one of
+    :func:`residual_spectra`."""
     co_f, counter_f = rotating_split(spectrum[0, 2], -sense * spectrum[0, 1])
     co_m, counter_m = rotating_split(spectrum[1, 2], -sense * spectrum[1, 1])
     return np.stack([co_f, counter_f, co_m, counter_m, spectrum[1, 0]])
@@ -167,14 +208,26 @@ def targeted_orders(max_order: int, orders, targeted: np.ndarray) -> np.ndarray:
     return np.isin(checked_orders(max_order), list(orders))[:, None] & targeted
 
 
-def _made_worse(scene: Scene, unit, phasors_before_after, targeted: np.ndarray, speeds: Speeds) -> dict:
+def _made_worse(scene: Scene, scales: tuple[float, float], phasors_before_after, targeted: np.ndarray,
+                speeds: Speeds) -> dict:
     """The made-worse check of :func:`verify`: the phasors (component, order
     0 … max_order) at unit speed without and with the balancer elements,
-    compared at every speed."""
+    compared at every speed, with the engine's ``scales`` (:func:`engine_scales`)."""
     at_speed = speeds.scaled
     before, after = (at_speed(values[:, 1:].T) for values in phasors_before_after)  # (lead..., order, component)
-    return made_worse_check(before, after, targeted, (at_speed(unit.force_scale), at_speed(unit.moment_scale)),
+    return made_worse_check(before, after, targeted, (at_speed(scales[0]), at_speed(scales[1])),
                             len(scene.cylinders), scene.model.negligible, speeds.lead)
+
+
+def _check_finite(scene: Scene, arrays) -> None:
+    """Refuse loads that are not finite (elements so large that their loads
+    overflow): a verdict on inf or NaN would mean nothing."""
+    if all(np.isfinite(np.asarray(a)).all() for a in arrays):
+        return
+    largest = max((u.unbalance * shaft.ratio**2 for shaft in scene.shafts for u in shaft.unbalances), default=0.0)
+    raise VerifyError(f"{scene.source}: the loads are not finite (the largest balancer element makes "
+                      f"{largest:.3g} kg m × ω²): check the elements' unbalances ([[balance_shaft]], "
+                      "[[counterweight]], [[lanchester_pair]]) and the masses")
 
 
 def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str = "scipy"):
@@ -211,16 +264,26 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         ``_after`` and ``worsened`` (not targeted, free with the elements and
         grown by more than the negligible level); ``force_negligible_level``
         [N] and ``moment_negligible_level`` [N m] are ``[model] negligible``
-        (the attribute ``negligible``) × the load scale / the number of
-        cylinders. The attribute ``passed`` is ``"yes"`` if everything
-        passes; ``worsened`` names the components made worse, one per line
-        (empty if none).
+        (the attribute ``negligible``) × the engine's load scale / the number
+        of cylinders. ``force_scale`` [N] and ``moment_scale`` [N m] are the
+        engine's load scales (:func:`engine_scales`: without any balancer
+        element) that judge every level. The attribute ``passed`` is
+        ``"yes"`` if everything passes; ``worsened`` names the components made
+        worse, one per line (empty if none).
 
     Raises
     ------
     VerifyError
-        If there is no request or it names an order above the scene's
-        ``max_order``.
+        If there is no request, it names an order above the scene's
+        ``max_order``, or the loads are not finite (elements of absurd size).
+
+    Notes
+    -----
+    The tolerance is ``tolerance`` × abs(before) + ZERO_RTOL × the engine's
+    load scale + the aliasing estimate: the exact residual must equal the
+    prediction up to the class *zero* of the engine without the elements, the
+    level :func:`harmbal.design` calls a target cancelled by. It never grows
+    with the elements' own loads.
     """
     request = request or scene.verify
     if request is None:
@@ -229,14 +292,19 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     if max(request.orders) > scene.sampling.max_order:
         raise VerifyError(f"{scene.source}: order {max(request.orders)} is above sampling.max_order = "
                           f"{scene.sampling.max_order}")
-    samples = max(choose_samples(scene), PEAK_SAMPLES)  # peaks over the revolution need fine sampling
-    unit = evaluate(scene, samples)  # one evaluation: "before" is the same loads without the elements
+    own = choose_samples(scene)
+    samples = max(own, PEAK_SAMPLES)  # as verify_samples
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite loads are refused just below
+        unit = evaluate(scene, samples)  # one evaluation: "before" is the same loads without the elements
+        engine = engine_scales(scene, unit if samples == own else None)  # the scene's sampling, as design's
+        after, before = np.stack(unit.total()), np.stack(unit.total(elements=False))  # (force/moment, axis, angle)
+        kmax = scene.sampling.max_order  # every order is checked for components made worse
+        spectra = residual_spectra(unit, kmax, backend)  # (after/before, f/m, axis, order)
+    _check_finite(scene, (after, before, spectra, engine))
     orders = list(request.orders)
-    after, before = np.stack(unit.total()), np.stack(unit.total(elements=False))  # (force/moment, axis, angle)
-    kmax = scene.sampling.max_order  # every order is checked for components made worse
-    spectra = phasors(np.stack([after, before]), backend)[..., : kmax + 1]  # (after/before, f/m, axis, order)
     # The co/counter split needs the orders from 0 (order 0 is a fixed vector); then keep the orders asked for.
-    exact_all, unbalanced_all = (_components(spectrum, unit.sense) for spectrum in spectra)  # (component, order)
+    # (component, order) each
+    exact_all, unbalanced_all = (spectrum_components(spectrum, unit.sense) for spectrum in spectra)
     exact, unbalanced = exact_all[:, orders], unbalanced_all[:, orders]
     spectra = spectra[..., orders]
     alias_force, alias_moment = body_aliasing(unit, backend)
@@ -246,19 +314,23 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     speeds = Speeds(scene.speeds)
     w2, lead, at_speed = np.asarray(speeds.w2), speeds.lead, speeds.scaled
 
-    predicted = np.zeros((len(orders), len(names)), dtype=complex)
-    for k, name, value in request.predicted:
-        predicted[orders.index(k), names.index(name)] = value
-    ratio = w2 / request.speed**2 if request.speed else np.ones_like(w2)  # predictions scale with ω² too
-    predicted = np.multiply.outer(ratio, predicted) if lead else ratio * predicted
-    exact, unbalanced = at_speed(exact.T), at_speed(unbalanced.T)  # (speed, order, component)
-    scale = per_component(at_speed(unit.force_scale), at_speed(unit.moment_scale))
-    alias = per_component(at_speed(alias_force.max()), at_speed(alias_moment.max()))
-    worse = _made_worse(scene, unit, (unbalanced_all, exact_all), targeted_orders(kmax, orders, targeted), speeds)
-    level = component_levels(worse)
-    scale, alias = scale[..., None, :], alias[..., None, :]  # broadcast over order
-    tolerance = request.tolerance * np.abs(unbalanced) + VERIFY_RTOL * scale + alias
-    difference = np.abs(exact - predicted)
+    with np.errstate(over="ignore", invalid="ignore"):  # values at speed that overflow are refused below
+        predicted = np.zeros((len(orders), len(names)), dtype=complex)
+        for k, name, value in request.predicted:
+            predicted[orders.index(k), names.index(name)] = value
+        ratio = w2 / request.speed**2 if request.speed else np.ones_like(w2)  # predictions scale with ω² too
+        predicted = np.multiply.outer(ratio, predicted) if lead else ratio * predicted
+        exact, unbalanced = at_speed(exact.T), at_speed(unbalanced.T)  # (speed, order, component)
+        scale = per_component(at_speed(engine[0]), at_speed(engine[1]))
+        alias = per_component(at_speed(alias_force.max()), at_speed(alias_moment.max()))
+        worse = _made_worse(scene, engine, (unbalanced_all, exact_all), targeted_orders(kmax, orders, targeted),
+                            speeds)
+        level = component_levels(worse)
+        scale, alias = scale[..., None, :], alias[..., None, :]  # broadcast over order
+        # The class zero of the engine alone: what design calls cancelled; never the elements' own loads.
+        tolerance = request.tolerance * np.abs(unbalanced) + ZERO_RTOL * scale + alias
+        difference = np.abs(exact - predicted)
+    _check_finite(scene, (exact, tolerance, difference))
     passed = ~targeted | (difference <= tolerance)
 
     def removed(was, now, scale):
@@ -285,7 +357,7 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         **worse,
     }
     for j, (name, units) in enumerate((("force", "N"), ("moment", "N m"))):
-        s = at_speed(unit.force_scale if name == "force" else unit.moment_scale)
+        s = at_speed(engine[j])
         was, now = at_speed(np.abs(before[j]).max(axis=-1)), at_speed(np.abs(after[j]).max(axis=-1))
         data[f"peak_{name}_before"] = (lead + ("axis",), was, {
             "units": units, "long_name": f"peak {name} over the revolution without balancer elements (all orders)"})
@@ -299,7 +371,8 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
             "units": units, "long_name": f"{name} amplitude per order and axis with the balancer elements"})
         data[f"{name}_removed"] = (lead + ("order", "axis"), removed(was, now, np.reshape(s, np.shape(s) + (1, 1))),
                                    {"units": "%"})
-        data[f"{name}_scale"] = (lead, s, {"units": units, "long_name": f"sum of single-body peak {name}s"})
+        data[f"{name}_scale"] = (lead, s, {"units": units, "long_name": f"sum of single-body peak {name}s "
+                                                                        "without balancer elements"})
     coords = speeds.coords()
     coords.update({
         "order": ("order", np.array(orders), {}),
@@ -314,8 +387,8 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         "engine": scene.name,
         "samples_per_rev": samples,
         "cancel": " ".join(request.cancel),
-        "tolerance_rule": (f"{request.tolerance:g} x value without balancers + {VERIFY_RTOL:g} x sum of single-body "
-                           "peak loads + aliasing estimate"),
+        "tolerance_rule": (f"{request.tolerance:g} x value without balancers + {ZERO_RTOL:g} x sum of single-body "
+                           "peak loads without balancers + aliasing estimate"),
         "predicted_speed": request.speed if request.speed else "none (every targeted component must vanish)",
         "passed": "yes" if ok else "no",
         "negligible": scene.model.negligible,

@@ -12,6 +12,13 @@ each complex variable is stored as a real variable with a trailing dimension
 ``part`` = (``real``, ``imag``) and the attribute ``complex_encoding``;
 :func:`open_archive` restores it.
 
+Integrity (:mod:`harmbal.io.integrity`). Every array is written through a
+checksum filter (HDF5 ``fletcher32``, Zarr ``crc32``), the root attribute
+``harmbal_checksum`` holds digests of every group's and variable's metadata
+and in-memory values, and a netCDF file ends with the SHA-256 of all its
+bytes; :func:`open_archive` checks them all and refuses external storage
+and links.
+
 Speeds. A variable over several speeds is stored as it is, per speed, with
 the ``speed`` [rad/s] and ``rpm`` coordinates in its group, whenever the
 ω²-scaled variables of the whole tree total at most :data:`PER_SPEED_LIMIT`
@@ -35,12 +42,15 @@ earlier archives) to the same objects :func:`harmbal.analyse` returns, lazy
 
 from __future__ import annotations
 
+import errno
 import os
 from pathlib import Path
 
 import numpy as np
 
-from .files import atomic_path
+from .files import atomic_path, restore_interrupted
+from .integrity import (ArchiveError, CHECKSUM_ATTR, TRAILER_SIZE, append_file_checksum, check_file_checksum,
+                        checksum_attribute, scan_netcdf, scan_zarr, verify)
 from ..labelled import (CF_CONVENTIONS, SPEED_INDEPENDENT, SPEED_SCALING, Speeds, speed_independent_values,
                         unit_speed_values, with_speed_indexes)
 
@@ -66,10 +76,6 @@ _STORAGE_ATTR = "speed_storage"
 _UNIT_SPEED_STORAGE = ("unit speed: every variable that scales with the squared crank speed is stored as "
                        "<name>_per_speed_squared (see its formula attribute); the speed [rad/s] and rpm coordinates "
                        "are the root group's (see speed_coordinates_of)")
-
-
-class ArchiveError(ValueError):
-    """A file that is not a readable harmbal archive."""
 
 
 def per_speed_bytes(tree) -> int:
@@ -213,12 +219,18 @@ def _is_part(name: str, variable, plain: dict) -> bool:
     return name.endswith(SPEED_INDEPENDENT) and base is not None and SPEED_SCALING in base.attrs
 
 
+class _Malformed(Exception):
+    """A group that does not have the structure harmbal writes (found while decoding it)."""
+
+
 def _complex_decoded(var):
     import xarray as xr
 
     attrs, variable = dict(var.attrs), var.variable
     if attrs.pop(_ENCODING_ATTR, None) != _ENCODING:
         return variable
+    if variable.sizes.get(PART) != 2:
+        raise _Malformed(f"variable {var.name}: {_ENCODING_ATTR} without a '{PART}' dimension of 2 (real, imag)")
     values = variable.transpose(..., PART).values
     return xr.Variable(variable.transpose(..., PART).dims[:-1], values[..., 0] + 1j * values[..., 1], attrs)
 
@@ -226,7 +238,8 @@ def _complex_decoded(var):
 def _per_speed(ds, variable, constant) -> tuple:
     """The variable a ``<name>_per_speed_squared`` stores, over ``speed``."""
     attrs = dict(variable.attrs)
-    name = attrs.pop(_NAME_ATTR)
+    _require_speeds(ds, variable.attrs[_NAME_ATTR] + PER_SPEED_SQUARED, attrs, _UNITS_ATTR)
+    name = str(attrs.pop(_NAME_ATTR))
     attrs["units"] = attrs.pop(_UNITS_ATTR)
     for key in ("formula", "ancillary_variables"):
         attrs.pop(key, None)
@@ -240,6 +253,7 @@ def _legacy_per_speed(ds, name: str, variable, plain: dict) -> tuple:
     """A variable of an archive written before issue 33 (attributes
     ``speed_scaling``, ``units_at_speed``; gas part ``<name>_speed_independent``)."""
     attrs = dict(variable.attrs)
+    _require_speeds(ds, name, attrs, "units_at_speed")
     del attrs[SPEED_SCALING]
     attrs["units"] = attrs.pop("units_at_speed")
     constant = plain.get(f"{name}{SPEED_INDEPENDENT}")
@@ -247,13 +261,26 @@ def _legacy_per_speed(ds, name: str, variable, plain: dict) -> tuple:
                                                      constant=None if constant is None else constant.values)
 
 
+def _require_speeds(ds, name: str, attrs: dict, units: str) -> None:
+    """A variable stored without its speeds needs the group's (or the root's) speed coordinates and its units."""
+    if "speed" not in ds.coords or ds["speed"].ndim != 1:
+        raise _Malformed(f"variable {name}: stored without its speed dimension, but the archive has no speed "
+                         "coordinate for it")
+    if units not in attrs:
+        raise _Malformed(f"variable {name}: stored without its speed dimension, but has no {units} attribute")
+
+
 def save(tree, path: str | os.PathLike, *, per_speed_limit: int | None = None) -> Path:
     """Write an analysis tree to a netCDF-4 file (or a Zarr store), atomically.
 
     The file is first written next to its destination and moved into place
-    only when complete, so a failed write leaves no file behind. Variables
-    held as dask arrays (a chunked sweep) are evaluated and written chunk by
-    chunk, never all in memory.
+    only when complete, so a failed write leaves no file behind (and a
+    killed one a temporary that the next write there removes,
+    :mod:`harmbal.io.files`). A netCDF file's disk space is reserved before
+    HDF5 writes a byte, so a full disk is refused up front. Every array is
+    checksummed, and so is the whole file (:mod:`harmbal.io.integrity`).
+    Variables held as dask arrays (a chunked sweep) are evaluated and
+    written chunk by chunk, never all in memory.
 
     Parameters
     ----------
@@ -272,6 +299,12 @@ def save(tree, path: str | os.PathLike, *, per_speed_limit: int | None = None) -
     -------
     pathlib.Path
         The path written.
+
+    Raises
+    ------
+    harmbal.io.files.WriteError
+        An ``OSError`` with a one-line message naming ``path`` when it
+        cannot be written (full disk, with the size it needs; no permission).
     """
     return save_and_compute(tree, path, per_speed_limit=per_speed_limit)[0]
 
@@ -298,20 +331,105 @@ def save_and_compute(tree, path: str | os.PathLike, *collections, per_speed_limi
     nodes["/"] = nodes["/"].assign_attrs({"Conventions": nodes["/"].attrs.get("Conventions", CF_CONVENTIONS)})
     if unit_speed:
         nodes = _share_speeds(nodes)
+    nodes["/"] = nodes["/"].assign_attrs({CHECKSUM_ATTR: checksum_attribute(nodes)})
     encoded = xr.DataTree.from_dict(nodes)
-    with atomic_path(path, directory=zarr) as tmp:
-        lazy = bool(collections)
+    encoding = {group: {name: _checksum_encoding(var, zarr) for name, var in ds.variables.items()}
+                for group, ds in nodes.items()}
+    lazy = bool(collections)
+    with atomic_path(path, directory=zarr, reserve=0 if zarr else netcdf_size(nodes) + TRAILER_SIZE) as tmp:
         if zarr:
             # Zarr format 2: its fixed-length strings and consolidated metadata are specified (format 3: not yet).
-            write = encoded.to_zarr(tmp, mode="w", compute=not lazy, consolidated=True, zarr_format=2)
+            # Every chunk is written, even one of fill values, so that a missing chunk file shows (integrity).
+            write = encoded.to_zarr(tmp, mode="w", compute=not lazy, consolidated=True, zarr_format=2,
+                                    encoding=encoding, write_empty_chunks=True)
+            computed = _compute(write, collections) if lazy else ()
         else:
-            write = encoded.to_netcdf(tmp, engine="h5netcdf", compute=not lazy)
-        computed = ()
-        if lazy:
-            import dask
+            import h5py
 
-            computed = dask.compute(write, *collections)[1:]
+            # HDF5 writes into the file atomic_path reserved (a file object: it must not truncate it), so a full
+            # disk is refused before it starts: HDF5 cannot recover from running out of space half-way. The
+            # HDF5 1.10 format (readable by HDF5 >= 1.10, 2016) indexes a one-chunk array without a B-tree node:
+            # checksummed (chunked) small arrays then cost bytes, not kilobytes. Creation order kept for netCDF-C.
+            with open(tmp, "r+b") as fh, h5py.File(fh, "w", libver=("v110", "v110"), track_order=True) as h5:
+                write = encoded.to_netcdf(h5, engine="h5netcdf", compute=not lazy, encoding=encoding)
+                computed = _compute(write, collections) if lazy else ()
+            append_file_checksum(tmp)
     return (path, *computed)
+
+
+def _compute(write, collections) -> tuple:
+    import dask
+
+    return dask.compute(write, *collections)[1:]
+
+
+def _checksum_encoding(variable, zarr: bool) -> dict:
+    """Each array through a checksum filter (fletcher32 in HDF5, which needs a
+    chunked array of at least one element; crc32 in Zarr); every other
+    encoding dropped, so that the file holds exactly the values digested."""
+    kind = variable.dtype.kind
+    if zarr:
+        from numcodecs import CRC32
+
+        return {"filters": [CRC32()]} if kind in "biufcmMUS" else {}
+    chunks = _hdf5_chunks(variable)
+    return {} if chunks is None else {"fletcher32": True, "chunksizes": chunks}
+
+
+#: Largest HDF5 chunk [B] of an array held in memory: one chunk up to it (no B-tree, no padding), else slabs.
+_CHUNK_BYTES = 1 << 22
+
+
+def _hdf5_chunks(variable) -> tuple | None:
+    """The chunk shape of a checksummed array in HDF5 (None: stored whole,
+    unfiltered: strings, scalars, empty arrays). A dask array keeps its
+    blocks (each written once, whole); another is one chunk up to 4 MiB,
+    else slabs along its leading dimensions."""
+    if variable.dtype.kind not in "biufcmM" or not variable.ndim or not variable.size:
+        return None
+    itemsize = variable.dtype.itemsize
+    blocks = getattr(variable, "chunks", None)
+    if blocks and np.prod([b[0] for b in blocks]) * itemsize <= 1 << 30:
+        return tuple(int(b[0]) for b in blocks)
+    chunks, inner = list(variable.shape), itemsize
+    for axis in reversed(range(variable.ndim)):  # the trailing dimensions whole as long as they fit
+        if inner * variable.shape[axis] > _CHUNK_BYTES:
+            count = -(-variable.shape[axis] // max(1, _CHUNK_BYTES // inner))
+            chunks[axis] = -(-variable.shape[axis] // count)  # equal slabs: the last one padded by < count rows
+            chunks[:axis] = [1] * axis
+            break
+        inner *= variable.shape[axis]
+    return tuple(int(c) for c in chunks)
+
+
+def netcdf_size(nodes: dict) -> int:
+    """An upper bound of the size [B] of the netCDF file of ``nodes`` (group
+    path -> encoded Dataset), the space :func:`save` reserves: the values
+    with their chunks' padding and 64 B per chunk for its index entry,
+    strings at 32 B each beyond their text, the attributes twice, 2 KiB of
+    headers per variable (0.3 to 0.9 KiB measured), 64 KiB, and 1/32 of all
+    that for free space (the file of a 10⁴-speed V8 is 0.97 of the bound)."""
+    total = 1 << 16
+    for ds in nodes.values():
+        total += 4096 + 2 * _attrs_bytes(ds.attrs)
+        for variable in ds.variables.values():
+            total += (2 << 10) + 2 * _attrs_bytes(variable.attrs)
+            chunks = _hdf5_chunks(variable)
+            if variable.dtype.kind == "O":
+                total += sum(32 + 4 * len(str(item)) for item in np.ravel(variable.values))
+            elif variable.dtype.kind in "US":
+                total += variable.size * (32 + variable.dtype.itemsize)
+            elif chunks is None:
+                total += variable.size * variable.dtype.itemsize
+            else:  # whole chunks are stored, the last of each dimension padded, and each has an index entry
+                counts = [-(-n // c) for n, c in zip(variable.shape, chunks)]
+                total += int(np.prod(counts)) * (int(np.prod(chunks)) * variable.dtype.itemsize + 64)
+    return total + total // 32
+
+
+def _attrs_bytes(attrs) -> int:
+    return sum(64 + 4 * len(str(key)) + (4 * len(value) if isinstance(value, str) else np.asarray(value).nbytes)
+               for key, value in attrs.items())
 
 
 def _share_speeds(nodes: dict) -> dict:
@@ -333,7 +451,7 @@ def _share_speeds(nodes: dict) -> dict:
             for path, ds in nodes.items()}
 
 
-def _unshare_speeds(nodes: dict) -> dict:
+def _unshare_speeds(nodes: dict, source) -> dict:
     """The groups as :func:`harmbal.analyse` makes them: each with its speed
     coordinates, none in the root."""
     root = nodes["/"]
@@ -341,9 +459,12 @@ def _unshare_speeds(nodes: dict) -> dict:
     having = root.attrs.pop(_SHARED_ATTR, None)
     if having is None:
         return nodes
+    having = set(str(having).split())
+    if not having <= set(nodes) or any(name not in root.coords for name in _SPEED_COORDS):
+        absent = sorted(having - set(nodes)) or [f"root coordinate {n}" for n in _SPEED_COORDS if n not in root.coords]
+        raise ArchiveError(f"{source}: {_SHARED_ATTR} names {', '.join(absent)}, which the archive lacks")
     shared = {name: root[name].variable for name in _SPEED_COORDS}
     root = root.drop_vars(_SPEED_COORDS)
-    having = set(having.split())
     return {path: root if path == "/" else ds.assign_coords(shared) if path in having else ds
             for path, ds in nodes.items()}
 
@@ -353,6 +474,16 @@ def open_archive(path: str | os.PathLike):
     ends in ``.zarr``): complex values restored, the unit-speed form rebuilt
     over ``speed``, ``rpm`` indexed along ``speed`` (``ds.sel(rpm=3000)``).
 
+    The file is checked before and while it is read: it may not make HDF5
+    or Zarr read anything but itself (external storage, virtual datasets,
+    links, plugin filters, symbolic links in a store), every array's
+    checksum filter and the digests of the root attribute ``harmbal_checksum``
+    must match (:mod:`harmbal.io.integrity`). An archive written before
+    checksums (no such attribute, no filter) is read unverified: damage to
+    its values can go unnoticed. A Zarr store that a killed write left
+    beside its path (between the two renames of systems without an atomic
+    exchange) is put back first.
+
     Returns
     -------
     xarray.DataTree
@@ -360,19 +491,63 @@ def open_archive(path: str | os.PathLike):
 
     Raises
     ------
+    FileNotFoundError
+        If nothing is at ``path``.
     ArchiveError
-        If the file is not a netCDF-4/HDF5 file (or a Zarr store).
+        For anything else that keeps it from being read as written: not a
+        netCDF-4/HDF5 file (or Zarr store), damaged (naming the group and
+        variable where it can), altered, or refused; one line, naming the file.
     """
+    path = Path(path)
+    zarr = path.suffix == ".zarr"
+    if zarr:
+        restore_interrupted(path)
+    if not os.path.lexists(path):
+        raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), os.fspath(path))
+    try:
+        return _read(path, zarr)
+    except (ArchiveError, MemoryError):
+        raise
+    except Exception as exc:  # whatever h5py, HDF5, zarr or xarray make of a damaged file: one line, the file named
+        raise ArchiveError(f"{path}: not a readable harmbal archive ({_one_line(exc)})") from None
+
+
+def _read(path: Path, zarr: bool):
     import xarray as xr
 
-    engine = "zarr" if Path(path).suffix == ".zarr" else "h5netcdf"
-    try:
-        with xr.open_datatree(path, engine=engine) as stored:
-            stored.load()
-            groups = _unshare_speeds({node.path: node.to_dataset(inherit=False) for node in stored.subtree})
-            nodes = {path: _decode(ds) for path, ds in groups.items()}
-    except (OSError, ValueError) as exc:
-        if isinstance(exc, FileNotFoundError):
-            raise
-        raise ArchiveError(f"{path}: not a harmbal netCDF archive ({exc})") from None
+    if not zarr:
+        check_file_checksum(path)  # every byte, before HDF5 parses any
+    checksummed = scan_zarr(path) if zarr else scan_netcdf(path)
+    with xr.open_datatree(path, engine="zarr" if zarr else "h5netcdf") as stored:
+        groups = {node.path: _loaded(node.to_dataset(inherit=False), node.path, path) for node in stored.subtree}
+    verify(groups, path, required=checksummed)
+    groups["/"].attrs.pop(CHECKSUM_ATTR, None)
+    groups = _unshare_speeds(groups, path)
+    nodes = {}
+    for group, ds in groups.items():
+        try:
+            nodes[group] = _decode(ds)
+        except _Malformed as exc:
+            raise ArchiveError(f"{path}: group {group}: {exc}") from None
     return xr.DataTree.from_dict(nodes)
+
+
+def _loaded(ds, group: str, source):
+    """The group's values read, one variable at a time, so that a checksum
+    failure names the variable."""
+    for name, variable in ds.variables.items():
+        try:
+            variable.load()
+        except MemoryError:
+            raise
+        except Exception as exc:
+            text = _one_line(exc)
+            reason = ("data checksum mismatch (damaged)" if "checksum" in text.lower() or "filter" in text.lower()
+                      else f"cannot be read ({text})")
+            raise ArchiveError(f"{source}: group {group}, variable {name}: {reason}") from None
+    return ds
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 300 else text[:297] + "..."

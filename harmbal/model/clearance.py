@@ -39,12 +39,15 @@ import math
 import numpy as np
 
 from ..labelled import dataset
-from ..scene.schema import Scene
+from ..scene.schema import Problem, Scene, SceneError
 from ..scene.shapes import Outline
 from .kinematics import slider_crank
 
 #: Crank angles sampled per revolution before the local minima are refined.
 CLEARANCE_SAMPLES = 720
+#: Iterations of the golden-section refinement: each keeps 0.618 of the bracket, so from ±2π/8 to 1e-13
+#: rad takes 63; the limit only guards against a bracket that stops shrinking.
+MAX_REFINEMENTS = 200
 
 
 def _points(outline: Outline) -> np.ndarray:
@@ -207,7 +210,9 @@ def _minimum(scene: Scene, first: Outline, second: Outline, samples: int) -> tup
     x1, x2 = high - ratio * (high - low), low + ratio * (high - low)
     f1 = pair_distance(scene, first, second, theta[local] + x1)
     f2 = pair_distance(scene, first, second, theta[local] + x2)
-    while local.size and np.max(high - low) > 1e-13:
+    for _ in range(MAX_REFINEMENTS):
+        if not (local.size and np.max(high - low) > 1e-13):
+            break
         left = f1 <= f2  # the minimum lies in [low, x2], where x1 becomes the upper inner point; else in [x1, high]
         high, low = np.where(left, x2, high), np.where(left, low, x1)
         kept_x, kept_f = np.where(left, x1, x2), np.where(left, f1, f2)
@@ -215,6 +220,10 @@ def _minimum(scene: Scene, first: Outline, second: Outline, samples: int) -> tup
         value = pair_distance(scene, first, second, theta[local] + new)
         x1, f1 = np.where(left, new, kept_x), np.where(left, value, kept_f)
         x2, f2 = np.where(left, kept_x, new), np.where(left, kept_f, value)
+    else:
+        raise SceneError([Problem(scene.source, "outline", f"{first.part} / {second.part}", (
+            f"the smallest distance does not converge in {MAX_REFINEMENTS} refinements: check the outlines' "
+            "coordinates (a distance that is not finite)"))])
     best = np.concatenate([[d.min()], f1, f2])
     where = np.concatenate([[theta[int(np.argmin(d))]], theta[local] + x1, theta[local] + x2])
     i = int(np.argmin(best))

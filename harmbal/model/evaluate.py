@@ -22,6 +22,7 @@ import numpy as np
 
 from . import loads
 from .balancers import shaft_loads, shaft_phasors, unbalance_phasors
+from .budget import check_budget
 from .kinematics import SliderCrank, crank_pin, slider_crank
 from .linkage import lever_loads
 from .sampling import body_decay_rates, choose_samples, inertia_samples, interpolate
@@ -292,6 +293,7 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
     """
     decay_rates = body_decay_rates(scene) if decay_rates is None else decay_rates
     n = samples_per_rev or choose_samples(scene, decay_rates)
+    check_budget(scene, "evaluate", samples=n)  # every entry point's last guard before the arrays of C × n samples
     sense, effects = scene.sense, scene.model.effects
     theta = 2 * np.pi * np.arange(n) / n
     cyls = scene.cylinders

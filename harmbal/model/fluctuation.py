@@ -19,7 +19,7 @@ import numpy as np
 from .evaluate import UnitLoads
 from .gas import GasLoads
 from .speed import SpeedFluctuation, flywheel_for, periodic_speed
-from ..scene.schema import Flywheel
+from ..scene.schema import Flywheel, Problem, SceneError
 
 
 def crank_inertia(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarray]:
@@ -35,18 +35,30 @@ def crank_speeds(flywheel: Flywheel, speeds, unit: UnitLoads, gas: GasLoads) -> 
     the mean speed, in the sense of ``flywheel.mean``)."""
     variable, derivative = crank_inertia(unit, gas)
     torque = gas.total_torque
-    return [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, load_torque=flywheel.load_torque,
-                           inertia_derivative=derivative, mean=flywheel.mean)
-            for w in np.atleast_1d(speeds)]
+    try:
+        return [periodic_speed(gas.theta, torque, flywheel.inertia + variable, w, load_torque=flywheel.load_torque,
+                               inertia_derivative=derivative, mean=flywheel.mean)
+                for w in np.atleast_1d(speeds)]
+    except ValueError as exc:  # no periodic state: the crank stalls, the load differs from the mean, no convergence
+        key = "load_torque" if flywheel.load_torque is not None and "load torque" in str(exc) else "inertia"
+        raise _refused(key, getattr(flywheel, key), exc) from None
 
 
 def flywheels_needed(flywheel: Flywheel, speeds, unit: UnitLoads, gas: GasLoads) -> list[float]:
     """The constant inertia J₀ that gives ``flywheel.target_coefficient`` at each of ``speeds`` [rad/s]."""
     variable, derivative = crank_inertia(unit, gas)
     torque = gas.total_torque
-    return [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w,
-                         load_torque=flywheel.load_torque, inertia_derivative=derivative, mean=flywheel.mean)
-            for w in np.atleast_1d(speeds)]
+    try:
+        return [flywheel_for(flywheel.target_coefficient, gas.theta, torque, variable, w,
+                             load_torque=flywheel.load_torque, inertia_derivative=derivative, mean=flywheel.mean)
+                for w in np.atleast_1d(speeds)]
+    except ValueError as exc:  # unreachable (the train stalls first), or no convergence
+        raise _refused("target_coefficient", flywheel.target_coefficient, exc) from None
+
+
+def _refused(key: str, value, exc: ValueError) -> SceneError:
+    """The [flywheel] key to change, with why the periodic speed has no solution."""
+    return SceneError([Problem("[flywheel]", f"flywheel.{key}", value, str(exc))])
 
 
 def fluctuating_loads(unit: UnitLoads, per_alpha: UnitLoads, runs: list[SpeedFluctuation], revolutions: int,

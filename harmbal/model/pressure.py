@@ -39,6 +39,12 @@ OVERLAP_DEG = 40.0
 _RTOL, _ATOL = 1e-12, 1e-14
 #: Largest number of points evaluated at once by the trigonometric sum (bounds its memory to ~64 MB).
 _CHUNK = 1 << 22
+#: Iteration limits of the parametric trace's solvers. The closed-cycle integration takes 1 500-6 000
+#: evaluations of its right-hand side for any real engine (compression ratio up to 10⁶: 6 000, 0.3 s); a
+#: tiny clearance volume makes it ever stiffer (10⁸: 1.2 million, 40 s), so it stops at this many (~2 s).
+MAX_EVALUATIONS = 50_000
+#: Doublings of the heat bracket for a peak-pressure target, and Brent's iterations (it needs ~50).
+MAX_DOUBLINGS, MAX_ITERATIONS = 200, 200
 
 
 def firing_tdc_angle(crank_radius: float, rod_length: float, offset: float) -> float:
@@ -326,7 +332,7 @@ def combustion_trace(gas: Gas, crank_radius: float, rod_length: float, offset: f
 def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
                       heat: float | None) -> CombustionTrace:
     from scipy.integrate import quad, solve_ivp
-    from scipy.optimize import brentq, minimize_scalar
+    from scipy.optimize import minimize_scalar
 
     area = math.pi * bore**2 / 4
     psi_tdc = firing_tdc_angle(r, l, e)
@@ -351,8 +357,12 @@ def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
         rate = np.where(alpha > c.start, c.efficiency * (c.shape + 1) / c.duration * s**c.shape * decay, 0.0)
         return 1 - decay, rate
 
+    evaluations = itertools.count(1)
+
     def rates(alpha, y):
         # y = (p_h, p_q, W_h, W_q): the pressure is linear in Q, p = p_h + Q·p_q, and so is the work.
+        if next(evaluations) > MAX_EVALUATIONS:
+            raise _Stiff
         v, dv = volume(alpha)
         x, dx = burnt(alpha)
         kappa = c.compression_exponent + (c.expansion_exponent - c.compression_exponent) * x
@@ -366,8 +376,17 @@ def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
     y, solutions, table = [1.0, 0.0, 0.0, 0.0], [], np.zeros((2, int(closed.sum())))
     for low, high in itertools.pairwise(breaks):
         inside = (alpha >= low) & (alpha <= high) & closed
-        solution = solve_ivp(rates, (low, high), y, method="DOP853", rtol=_RTOL, atol=_ATOL, dense_output=True,
-                             t_eval=np.clip(alpha[inside], low, high))
+        try:
+            solution = solve_ivp(rates, (low, high), y, method="DOP853", rtol=_RTOL, atol=_ATOL, dense_output=True,
+                                 t_eval=np.clip(alpha[inside], low, high))
+        except _Stiff:
+            raise _infeasible("compression_ratio", c.compression_ratio, (
+                f"the closed cycle does not integrate in {MAX_EVALUATIONS} steps (a clearance volume of "
+                f"{clearance / swept:.3g} of the swept volume makes it too stiff): lower compression_ratio to a real "
+                "engine's (below 100)"), unit=None) from None
+        if solution.status != 0:
+            raise _infeasible("compression_ratio", c.compression_ratio, f"the closed cycle does not integrate "
+                              f"({solution.message}): check compression_ratio and the exponents", unit=None)
         table[:, inside[closed]] = solution.y[:2]
         solutions.append((low, high, solution.sol))
         y = solution.y[:, -1] if solution.t.size and solution.t[-1] == high else solution.sol(high)
@@ -419,10 +438,7 @@ def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
             raise _infeasible("peak_pressure", c.peak_pressure,
                               f"below the motored peak pressure {motored_peak * p_ref / 1e5:.6g} bar (compression "
                               "alone reaches it): raise the target, or lower compression_ratio or intake_pressure")
-        high = 1.0
-        while peak(high)[0] < target:
-            high *= 2
-        q = brentq(lambda q: peak(q)[0] - target, 0.0, high, xtol=1e-14, rtol=1e-14)
+        q = _heat_for_peak(peak, target, c.peak_pressure)
     else:
         target = c.imep / p_ref
         q = (target - imep_a) / imep_b if imep_b > 0 else -1.0
@@ -441,5 +457,32 @@ def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
         ivc=ivc, evo=evo)
 
 
-def _infeasible(key: str, value: float, rule: str) -> SceneError:
-    return SceneError([Problem("[gas]", f"gas.combustion.{key}", f"{value / 1e5:.6g} bar", rule)])
+def _heat_for_peak(peak, target: float, given: float) -> float:
+    """The heat release (dimensionless) whose peak pressure is ``target``:
+    bracketed by doubling from 1, then Brent's method, each within its
+    iteration limit (the peak grows linearly with the heat, so neither needs
+    more than a few dozen)."""
+    from scipy.optimize import brentq
+
+    high = 1.0
+    for _ in range(MAX_DOUBLINGS):
+        if peak(high)[0] >= target:
+            break
+        high *= 2
+    else:
+        raise _infeasible("peak_pressure", given, f"no heat release up to {high:.3g} × p_IVC·V_swept reaches it: "
+                          "lower the target")
+    try:
+        return brentq(lambda q: peak(q)[0] - target, 0.0, high, xtol=1e-14, rtol=1e-14, maxiter=MAX_ITERATIONS)
+    except (RuntimeError, ValueError) as exc:  # no convergence, or no sign change (a peak that is not finite)
+        raise _infeasible("peak_pressure", given, f"the heat release that reaches it is not found ({exc}): check "
+                          "the [gas.combustion] values") from None
+
+
+class _Stiff(Exception):
+    """The closed-cycle integration reached :data:`MAX_EVALUATIONS`."""
+
+
+def _infeasible(key: str, value: float, rule: str, unit: str | None = "bar") -> SceneError:
+    shown = f"{value / 1e5:.6g} bar" if unit == "bar" else value
+    return SceneError([Problem("[gas]", f"gas.combustion.{key}", shown, rule)])

@@ -49,7 +49,16 @@ REFINE = 8
 #: nearly zero kinetic energy in less than a few refined steps (a near stall).
 RESOLUTION_RTOL = 1e-8
 
+#: Iteration limits: Brent's method (it needs ~50 on any of these roots; at the limit scipy reports
+#: non-convergence) and the doublings of the flywheel bracket (from 10⁻³ of the estimate to 10¹² of it: 50).
+MAX_ITERATIONS = 200
+MAX_DOUBLINGS = 100
+
 Mean = Literal["time", "angle"]
+
+
+class ConvergenceError(ValueError):
+    """A root finder reached its iteration limit (:data:`MAX_ITERATIONS`, :data:`MAX_DOUBLINGS`)."""
 
 
 class StallError(ValueError):
@@ -272,8 +281,6 @@ def flywheel_for(
     :func:`scipy.optimize.brentq` solves. A lower end at which the train
     stalls is pulled up by bisection towards the last J₀ that did not.
     """
-    from scipy.optimize import brentq
-
     if not (np.isfinite(target_coefficient) and target_coefficient > 0):
         raise ValueError(f"target_coefficient must be positive, got {target_coefficient!r}")
     grid, period = _grid(theta)
@@ -298,22 +305,25 @@ def flywheel_for(
     estimate = float(np.ptp(work)) / (target_coefficient * mean_speed**2)
     scale = max(estimate, float(variable.max()), np.finfo(float).tiny)
     high = max(estimate - float(variable.mean()), 1e-3 * scale)
-    while True:  # up from the estimate to a J₀ with δ ≤ target
+    for _ in range(MAX_DOUBLINGS):  # up from the estimate to a J₀ with δ ≤ target
         try:
             if excess(high) <= 0:
                 break
         except StallError:
             stalled = high
         high *= 2
-        if high > 1e12 * scale:
+        if not high <= 1e12 * scale:  # also a scale that is not finite
             raise ValueError(f"target_coefficient {target_coefficient:g} is not reached with any finite flywheel")
+    else:
+        raise ConvergenceError(f"target_coefficient {target_coefficient:g}: no flywheel found in {MAX_DOUBLINGS} "
+                               "doublings of the inertia")
     # Walk down from ``high`` (δ ≤ target) to a J₀ with δ > target: halving, or
     # bisecting towards the largest J₀ known to stall.
     for _ in range(200):
         low = 0.5 * high if stalled is None else 0.5 * (stalled + high)
         try:
             if excess(low) > 0:
-                return float(brentq(excess, low, high, xtol=1e-300, rtol=4 * np.finfo(float).eps))
+                return float(_brentq(excess, low, high, "the flywheel inertia for the target coefficient"))
             high = low
         except StallError:
             stalled = low
@@ -407,8 +417,6 @@ def _start_energy(work: np.ndarray, inertia: np.ndarray, mean_speed: float, mean
                   theta0: float, period: float) -> float:
     """E(θ₀) such that the mean speed over the refined samples of W and J is
     ``mean_speed``; raises StallError if the angle mean cannot be reached."""
-    from scipy.optimize import brentq
-
     def excess(energy0: float) -> float:
         with np.errstate(divide="ignore"):
             speed_squared = 2 * (energy0 + work) / inertia
@@ -426,7 +434,18 @@ def _start_energy(work: np.ndarray, inertia: np.ndarray, mean_speed: float, mean
             f"the mean speed {mean_speed:.6g} rad/s is too low for the torque swing: the crank train would "
             f"stall (kinetic energy zero at theta = {theta0 + period * j / work.size:.6g} rad): the lowest "
             f"angle-mean speed without a stall is {at_floor + mean_speed:.6g} rad/s; raise the mean speed or the inertia")
-    return brentq(excess, floor, ceiling, xtol=1e-300, rtol=4 * np.finfo(float).eps)
+    return _brentq(excess, floor, ceiling, "the kinetic energy at the start of the cycle")
+
+
+def _brentq(f, low: float, high: float, what: str) -> float:
+    """:func:`scipy.optimize.brentq` to round-off within :data:`MAX_ITERATIONS`;
+    ConvergenceError if it does not converge."""
+    from scipy.optimize import brentq
+
+    try:
+        return brentq(f, low, high, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=MAX_ITERATIONS)
+    except RuntimeError as exc:
+        raise ConvergenceError(f"{what} does not converge in {MAX_ITERATIONS} iterations ({exc})") from None
 
 
 def _extreme(energy: np.ndarray, inertia: np.ndarray, period: float, fine_omega: np.ndarray,

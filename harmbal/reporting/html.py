@@ -746,6 +746,29 @@ def _sections(page: _Page, scene, tree, log: bool, source: str | None) -> None:
     _provenance(page, scene, source or scene.source, dict(tree.attrs))
 
 
+def _stored_scene(attrs):
+    """The scene an analysis stored in its /scene attributes, re-read from its
+    text and the trace files stored with it, without opening a file. An
+    archive written before the files were stored (no ``scene_files``) reads
+    them from the file system, within the reader's rules."""
+    import json
+
+    from ..scene import SceneError, scene_from_text
+    from ..scene.schema import _MISSING, Problem
+
+    source = attrs.get("source", "<scene>")
+    files = None
+    if "scene_files" in attrs:
+        try:
+            files = json.loads(attrs["scene_files"])
+        except (TypeError, ValueError):
+            files = None
+        if not (isinstance(files, dict) and all(isinstance(v, str) for v in files.values())):
+            raise SceneError([Problem(source, "(stored trace files)", _MISSING, "the archive's /scene attribute "
+                                      "scene_files is not a JSON table of file texts: the archive is damaged")])
+    return scene_from_text(attrs["scene_toml"], source, files=files)
+
+
 def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, source: str | None = None,
            css: str = "") -> str:
     """The HTML report of an analysis.
@@ -770,10 +793,10 @@ def report(tree, path: str | os.PathLike | None = None, *, log: bool = False, so
     str
         The HTML text.
     """
-    from ..scene import scene_from_text
+    scene = _stored_scene(tree["scene"].ds.attrs)
+    from ..model.budget import check_budget
 
-    attrs = tree["scene"].ds.attrs
-    scene = scene_from_text(attrs["scene_toml"], attrs.get("source", "<scene>"))
+    check_budget(scene, "report", analysed=True)  # its figures and tables per speed, before any is drawn
     page = _Page()
     _sections(page, scene, tree, log, source)
     body = page.text()

@@ -34,6 +34,11 @@ class FiringOrderError(ValueError):
     """A firing order that the crank geometry cannot realise."""
 
 
+class FiringWarning(UserWarning):
+    """A firing order the crank can realise only by firing two cylinders it
+    lists one after the other at the same instant."""
+
+
 @dataclass(frozen=True)
 class Firing:
     """A firing sequence.

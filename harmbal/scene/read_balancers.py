@@ -10,8 +10,9 @@ from typing import Any, Mapping
 
 from .elements import (ASSEMBLY_MODES, PRODUCT_CONVENTIONS, TRANSMISSION_WARNING, LeverBalancer, LinkBody, Shaft,
                        ShaftUnbalance, closure, closure_message, couple_from_moment, couple_from_products)
+from .ranges import KEY_RANGES, MAX_RATIO
 from .read_shapes import BLANK_KEYS, ShapeTables
-from .schema import _MISSING, MAX_SAMPLES, Model, Sampling, _join
+from .schema import _MISSING, Model, Sampling, _join
 
 _PRODUCT_KEYS = {"xy", "xz", "convention"}
 _SHAFT_KEYS = {"label", "ratio", "axis_position", "unbalance", "couple", "couple_angle", "products_of_inertia"}
@@ -38,16 +39,15 @@ class BalancerTables(ShapeTables):
                   + self.balance_shafts(data.get("balance_shaft", []), sense)
                   + self.lanchester_pairs(data.get("lanchester_pair", [])))
         levers = self.lever_balancers(data.get("lever_balancer", []), sense)
+        # Ratios are at most MAX_RATIO and max_order at most MAX_SAMPLES / 4 (their ranges), so the sampling
+        # harmbal chooses always resolves the elements; samples_per_rev given may not (checked once it is valid).
         fastest = max((abs(s.ratio) for s in shafts), default=0)
-        if (sampling.samples_per_rev is not None and "balancers" in model.effects
-                and sampling.samples_per_rev <= fastest + sampling.max_order):
-            self.fail("sampling.samples_per_rev", sampling.samples_per_rev,
+        samples, max_order = sampling.samples_per_rev, sampling.max_order
+        if (shafts and samples is not None and samples >= 2 * max_order + 2 and "balancers" in model.effects
+                and samples <= fastest + max_order):
+            self.fail("sampling.samples_per_rev", samples,
                       f"a balancer element turning at {fastest}× would alias into the orders kept: must be more "
-                      f"than its |ratio| + max_order = {fastest + sampling.max_order}")
-        if sampling.samples_per_rev is None and fastest + sampling.max_order >= MAX_SAMPLES:
-            self.fail("balancer elements", fastest,
-                      f"an element turning at {fastest}× cannot be sampled without aliasing into the orders kept: "
-                      f"|ratio| + max_order must stay below {MAX_SAMPLES} samples per revolution")
+                      f"than its |ratio| + max_order = {fastest + max_order}")
         labels = [s.label for s in shafts] + [lever.label for lever in levers]
         for label in sorted({x for x in labels if labels.count(x) > 1}):
             self.fail("balancer elements", label, "two balancer elements have this label; labels must be unique")
@@ -144,6 +144,10 @@ class BalancerTables(ShapeTables):
             elif isinstance(ratio, bool) or not isinstance(ratio, int) or ratio == 0:
                 self.fail(_join(path, "ratio"), ratio, "must be a non-zero integer (negative turns against the crank)")
                 ratio = 1
+            elif abs(ratio) > MAX_RATIO:
+                self.fail(_join(path, "ratio"), ratio,
+                          f"|ratio| must be at most {MAX_RATIO}: {KEY_RANGES['ratio'].why}")
+                ratio = 1
             y, z = self.position(entry, "axis_position", path)
             unbalances = self.shaft_unbalances(entry.get("unbalance", []), _join(path, "unbalance"))
             shafts.append(Shaft(str(label), ratio, y, z, unbalances, self.couple(entry, path, sense)))
@@ -157,7 +161,7 @@ class BalancerTables(ShapeTables):
             self.unknown(entry, path, _LANCHESTER_KEYS)
             label = str(entry.get("label", f"Lanchester pair {len(shafts) // 2 + 1}"))
             if "order" in entry:
-                order = self.integer(entry, "order", path, 1, 1)
+                order = self.integer(entry, "order", path, 1, 1, maximum=MAX_RATIO)
             else:
                 self.fail(_join(path, "order"), _MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
                 order = 1

@@ -161,12 +161,14 @@ class CylinderTables:
     def check_distinct(self, cylinders: list[Cylinder]) -> None:
         seen_labels: dict[str, int] = {}
         seen_places: dict[tuple, int] = {}
+        # Axial positions compare to 1e-12 of the engine's size, which may be anything in the lengths' range.
+        size = max((abs(v) for c in cylinders for v in (c.x, c.rod_length) if math.isfinite(v)), default=1.0) or 1.0
         for i, c in enumerate(cylinders, start=1):
             if c.label in seen_labels:
                 self.fail(f"cylinder[{i}].label", c.label, f"duplicate of cylinder[{seen_labels[c.label]}]")
             seen_labels.setdefault(c.label, i)
             place = (round(math.remainder(c.throw, 2 * math.pi), 12), round(math.remainder(c.bank, 2 * math.pi), 12),
-                     round(c.x, 12))
+                     round(c.x / size, 12))
             if place in seen_places:
                 self.fail(f"cylinder[{i}]", {"throw": c.throw, "bank": c.bank, "axial_position": c.x},
                           f"duplicate cylinder: same throw, bank and axial position as cylinder[{seen_places[place]}]")

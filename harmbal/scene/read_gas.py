@@ -17,8 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from .ranges import MAGNITUDES
 from .schema import (_MISSING, DEFAULT_CRANKCASE_PRESSURE, INTERPOLATIONS, SPEED_MEANS, Combustion, Flywheel, Gas,
                      PressureTrace, _join)
+from .source_files import MAX_TRACE_BYTES, FileRefused, read_regular, resolve_trace
 from .units import to_si
 
 _GAS_KEYS = {"bore", "crankcase_pressure", "trace", "combustion"}
@@ -39,8 +41,13 @@ MIN_PEAK_PRESSURE, MAX_PEAK_PRESSURE = 1e5, 5e7
 #: Peak pressures [Pa] outside this range are possible but unusual (a motored engine reaches about 3 bar and
 #: more; the most highly loaded diesels about 300 bar): the trace reads, with a TraceWarning to check its unit.
 LOW_PEAK_PRESSURE, HIGH_PEAK_PRESSURE = 3e5, 3.5e7
-#: A trace is one table of samples: fewer points cannot describe a pressure cycle.
-MIN_TRACE_POINTS = 8
+#: A trace is one table of samples: fewer points cannot describe a pressure cycle; more than the most are
+#: no measured trace of one cycle (and would only cost time and memory).
+MIN_TRACE_POINTS, MAX_TRACE_POINTS = 8, 200_000
+#: Lowest pressure [Pa, absolute] a trace may hold: 1 mbar; below it the numbers are not absolute pressures.
+MIN_TRACE_PRESSURE = 100.0
+#: Longest part of a file's cell a message shows: an error names the offending token, never a file's lines.
+_TOKEN_CHARS = 20
 #: Largest gap closing the cycle, in units of the largest spacing inside the table.
 MAX_CLOSING_GAP = 1.5
 #: Relative difference allowed between the pressures at the two ends of a table that includes its endpoint.
@@ -93,10 +100,7 @@ class GasTables:
         load = self.quantity(table, "load_torque", "flywheel", "moment") if "load_torque" in table else None
         target = None
         if "target_coefficient" in table:
-            target = self.quantity(table, "target_coefficient", "flywheel", "dimensionless", positive=True)
-            if not target < 1:
-                self.fail("flywheel.target_coefficient", table["target_coefficient"],
-                          "must be below 1 (δ = (ω_max − ω_min)/ω_mean; engines need about 0.002–0.05)")
+            target = self.quantity(table, "target_coefficient", "flywheel", "dimensionless", positive=True)  # (0, 1)
         mean = self.choice(table, "mean", "flywheel", SPEED_MEANS, "time")
         return Flywheel(inertia=inertia, load_torque=load, target_coefficient=target, mean=mean)
 
@@ -202,6 +206,12 @@ class GasTables:
                                    np.asarray(columns.pressure, float) * factors[1], cycle, columns, at)
         if checked is None or not self.check_level(checked[1], crankcase, columns, at):
             return None
+        if not (checked[1] >= MIN_TRACE_PRESSURE).all():  # (a peak in range with a point near 0: not absolute)
+            i = int(np.argmax(~(checked[1] >= MIN_TRACE_PRESSURE)))
+            self.fail(columns.key or at("pressure"), f"{checked[1][i]:.6g} Pa at point {i + 1}",
+                      f"{columns.source + ': ' if columns.key else ''}absolute pressures must be at least "
+                      f"{MIN_TRACE_PRESSURE:g} Pa (1 mbar): are these gauge pressures? add the ambient pressure")
+            return None
         return PressureTrace(angle=tuple(checked[0].tolist()), pressure=tuple(checked[1].tolist()),
                              interpolation=interpolation, source=columns.source)
 
@@ -243,15 +253,8 @@ class GasTables:
             self.fail(key, name, "must be a path (a string)")
             return None
         path = Path(name) if Path(name).is_absolute() else self.base / name
-        try:
-            # Cylinders sharing the [gas] table share its file: read it once.
-            text = self.files[path] if path in self.files else self.files.setdefault(path, path.read_text(
-                encoding="utf-8"))
-        except FileNotFoundError:
-            self.fail(key, name, f"file not found: {path}")
-            return None
-        except (OSError, UnicodeDecodeError) as exc:
-            self.fail(key, name, f"cannot read {path}: {exc}")
+        text = self.trace_text(name, path, key)
+        if text is None:
             return None
         angle, pressure, header = [], [], None
         for number, line in enumerate(text.splitlines(), start=1):
@@ -265,11 +268,41 @@ class GasTables:
                 continue
             values = _numbers(cells)
             if values is None or len(values) != 2:
-                self.fail(key, name, f"{path}, line {number}: expected two numbers (angle, pressure), got {line!r}")
+                self.fail(key, name, f"{path}, line {number}: {_bad_row(cells, values, bool(angle))}")
+                return None
+            if len(angle) == MAX_TRACE_POINTS:
+                self.fail(key, name, f"{path}: more than {MAX_TRACE_POINTS} points: not a measured trace of one "
+                          "cycle (0.01° steps over 720° are 72 000): resample it")
                 return None
             angle.append(values[0])
             pressure.append(values[1])
         return self.file_units(angle, pressure, header, (name, str(path)), at, units)
+
+    def trace_text(self, name: str, path: Path, key: str) -> str | None:
+        """The text of the trace file written ``name`` (``path``, relative to
+        the scene's folder): from the files given to the reader, else read
+        once from the file system within the rules of
+        :mod:`.source_files`; None after a problem."""
+        if name in self.files:  # cylinders sharing the [gas] table share its file: read it once
+            return self.files[name]
+        if self.given is not None:
+            if name not in self.given:
+                self.fail(key, name, "not among the trace files stored with the scene (the reader was given the "
+                          f"files {', '.join(map(repr, sorted(self.given))) or 'none'} and reads no other)")
+                return None
+            text = self.given[name]
+        else:
+            try:
+                text = read_regular(resolve_trace(name, self.base, self.roots), MAX_TRACE_BYTES,
+                                    "a trace file (CSV)")
+            except FileNotFoundError:
+                self.fail(key, name, f"file not found: {path}")
+                return None
+            except FileRefused as exc:
+                self.fail(key, name, f"{path} {exc}")
+                return None
+        self.files[name] = text
+        return text
 
     def file_units(self, angle: list, pressure: list, header: list[str] | None, name: tuple[str, str], at,
                    units: Mapping) -> _Columns | None:
@@ -289,7 +322,7 @@ class GasTables:
         messages name the column and how to change its unit; None after a
         problem (no unit, an unknown one, or header and ``units`` disagreeing)."""
         dimension, (written, path), key = _COLUMNS[index], name, at("file")
-        label = f"{path}, column {index + 1} " + (f"{cell!r}" if cell else f"({dimension}, no header)")
+        label = f"{path}, column {index + 1} " + (f"{_token(cell)!r}" if cell else f"({dimension}, no header)")
         units_key = _join(at("units"), dimension)
         match, given = _HEADER_UNITS.match(cell), units.get(dimension)
         if match:
@@ -319,11 +352,16 @@ class GasTables:
         cycle_text = f"{180 * cycle}°"
         akey, pkey = columns.key or at("angle"), columns.key or at("pressure")
         where = f"{columns.source}: " if columns.key else ""
-        if angle.size < MIN_TRACE_POINTS:
-            self.fail(akey, f"{angle.size} points", f"{where}a trace needs at least {MIN_TRACE_POINTS} points")
+        if not MIN_TRACE_POINTS <= angle.size <= MAX_TRACE_POINTS:
+            self.fail(akey, f"{angle.size} points", f"{where}a trace needs at least {MIN_TRACE_POINTS} points"
+                      if angle.size < MIN_TRACE_POINTS else f"{where}a trace has at most {MAX_TRACE_POINTS} points")
             return None
         if not (np.isfinite(angle).all() and np.isfinite(pressure).all()):
             self.fail(akey, "nan or inf", f"{where}must be finite")
+            return None
+        if not (np.abs(angle) <= MAGNITUDES["angle"].high).all():
+            self.fail(akey, f"{math.degrees(float(np.max(np.abs(angle)))):.6g}°", f"{where}angles must lie within "
+                      "±3600° (the angle range); a trace's angles span one cycle from firing TDC")
             return None
         steps = np.diff(angle)
         if not (steps > 0).all():
@@ -335,6 +373,7 @@ class GasTables:
             i = int(np.argmax(~(pressure > 0)))
             self.fail(pkey, f"{pressure[i]:.6g} Pa at point {i + 1}", f"{where}absolute pressures must be positive")
             return None
+
         span = angle[-1] - angle[0]
         largest = float(steps.max())
         if abs(span - period) <= _ENDPOINT_RTOL * largest:
@@ -400,18 +439,12 @@ class GasTables:
         if cycle != 4:
             self.fail(section, _MISSING, "the parametric trace models a four-stroke cycle (engine.cycle = 4); "
                       "give a two-stroke a measured [gas.trace]")
-        ratio = q("compression_ratio", "dimensionless")
-        if math.isfinite(ratio) and not ratio > 1:
-            self.fail(_join(where.get("compression_ratio", section), "compression_ratio"), table["compression_ratio"],
-                      "must be greater than 1")
+        ratio = q("compression_ratio", "dimensionless")  # in (1, 100], as every key in its range (.ranges)
         intake = q("intake_pressure", "pressure", positive=True)
         exhaust = q("exhaust_pressure", "pressure", positive=True) if "exhaust_pressure" in table else intake
         exponents = []
         for key, default in (("compression_exponent", 1.35), ("expansion_exponent", 1.30)):
-            n = q(key, "dimensionless", default=default)
-            if math.isfinite(n) and not 1 < n < 2:
-                self.fail(_join(where.get(key, section), key), table[key], "a polytropic exponent must lie in (1, 2)")
-            exponents.append(n)
+            exponents.append(q(key, "dimensionless", default=default))
         start = q("start", "angle")
         duration = q("duration", "angle", positive=True)
         if math.isfinite(start) and math.isfinite(duration) and duration > 0 and not (
@@ -506,6 +539,25 @@ def _likely_unit(raw_peak: float, unit: str, crankcase: float, fix: str) -> str:
 def _bar(pascal: float) -> str:
     """A pressure [Pa] in bar, to 6 significant digits."""
     return f"{pascal / 1e5:.6g}"
+
+
+def _token(cell: str) -> str:
+    """A file's cell as a message may show it: at most :data:`_TOKEN_CHARS` characters."""
+    return cell if len(cell) <= _TOKEN_CHARS else cell[:_TOKEN_CHARS] + "…"
+
+
+def _bad_row(cells: list[str], values: list[float] | None, has_rows: bool) -> str:
+    """What is wrong with a line of a trace file that is not two numbers. Only
+    in a file that has rows of numbers already, i.e. one meant as a trace, the
+    offending token is shown (shortened): a message never echoes a file's lines."""
+    if not has_rows:
+        return ("neither the header nor a row of two numbers (angle, pressure): a trace file has at most one "
+                "header line, such as \"angle [deg],pressure [bar]\", then two numbers per line (# starts a "
+                "comment); is this a pressure trace?")
+    if values is None:
+        bad = next(c for c in cells if _numbers([c]) is None)
+        return f"expected two numbers (angle, pressure), got {_token(bad)!r}"
+    return f"expected two numbers (angle, pressure), got {len(values)}"
 
 
 def _numbers(cells: list[str]) -> list[float] | None:

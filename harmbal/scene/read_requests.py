@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import Mapping
 
+from .ranges import KEY_RANGES, MAX_RATIO
 from .requests import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate,
                        DesignRequest, LeverDesignRequest, VerifyRequest)
 from .read_shapes import BLANK_KEYS
@@ -74,9 +75,10 @@ class RequestTables:
         if "weights" in lever:
             raw_weights = lever["weights"]
             if (objective != "orders" or not isinstance(raw_weights, list) or len(raw_weights) != len(orders)
-                    or any(isinstance(w, bool) or not isinstance(w, (int, float)) or not w >= 0 for w in raw_weights)):
-                self.fail("design.lever.weights", raw_weights, "one non-negative number per order of design.orders, "
-                          'with objective = "orders"')
+                    or any(isinstance(w, bool) or not isinstance(w, (int, float)) or w not in KEY_RANGES["weights"]
+                           for w in raw_weights)):
+                self.fail("design.lever.weights", raw_weights, f"one number in {KEY_RANGES['weights'].interval()} "
+                          'per order of design.orders, with objective = "orders"')
             else:
                 weights = tuple(float(w) for w in raw_weights)
         bounds = {}
@@ -101,17 +103,13 @@ class RequestTables:
         if kind == "counterweights":
             factor = None
             if "balance_factor" in entry:
-                factor = self.quantity(entry, "balance_factor", path, "dimensionless")
-                if math.isfinite(factor) and not 0 <= factor <= 1:
-                    self.fail(_join(path, "balance_factor"), entry["balance_factor"],
-                              "must lie in [0, 1]: the share of the reciprocating masses the counterweights carry "
-                              "besides the rotating masses")
+                factor = self.quantity(entry, "balance_factor", path, "dimensionless")  # in [0, 1]
             return Candidate(kind, label, 1, self.lengths(entry, "planes", path), balance_factor=factor,
                              max_unbalance=bound, blank=self.blank(entry, path, sizing=True))
         if kind == "lanchester_pair":
             order = 1
             if "order" in entry:
-                order = self.integer(entry, "order", path, 1, 1)
+                order = self.integer(entry, "order", path, 1, 1, maximum=MAX_RATIO)
                 if order > max_order:
                     self.fail(_join(path, "order"), order, f"must not exceed sampling.max_order = {max_order}")
             else:
@@ -169,6 +167,8 @@ class RequestTables:
             self.fail(_join(path, key), ratio, "missing: the speed ratio n (negative turns against the crank)")
         elif isinstance(ratio, bool) or not isinstance(ratio, int) or ratio == 0:
             self.fail(_join(path, key), ratio, "must be a non-zero integer (negative turns against the crank)")
+        elif abs(ratio) > MAX_RATIO:
+            self.fail(_join(path, key), ratio, f"|ratio| must be at most {MAX_RATIO}: {KEY_RANGES['ratio'].why}")
         else:
             return ratio
         return 1
@@ -177,16 +177,13 @@ class RequestTables:
         orders = self.orders(raw, "verify", max_order)
         cancel = self.names(raw, "cancel", "verify", CANCEL, ("force", "moment"))
         speed = self.quantity(raw, "speed", "verify", "speed", positive=True) if "speed" in raw else None
-        tolerance = self.quantity(raw, "tolerance", "verify", "dimensionless", default=0.0, nonnegative=True)
-        if math.isfinite(tolerance) and tolerance >= 1:
-            self.fail("verify.tolerance", raw["tolerance"], "must lie in [0, 1): the share of each value without "
-                      "balancers that may remain")
+        tolerance = self.quantity(raw, "tolerance", "verify", "dimensionless", default=0.0, nonnegative=True)  # [0, 1)
         predicted = []
         if "predicted" in raw and speed is None:
             self.fail("verify.predicted", _MISSING, "needs verify.speed, the speed the predictions are given at")
         for path, entry in self.array(raw.get("predicted", []), "verify.predicted"):
             self.unknown(entry, path, _PREDICTED_KEYS)
-            order = self.integer(entry, "order", path, 0, 1)
+            order = self.integer(entry, "order", path, 0, 1)  # one of verify.orders
             if order not in orders:
                 self.fail(_join(path, "order"), entry.get("order"), "must be one of verify.orders")
             for name, group in COMPONENTS:

@@ -11,7 +11,9 @@ each group of tables is read by a mixin of its own module:
 :mod:`.read_engine` ([engine], [model], [sampling]), :mod:`.read_cylinders`
 ([geometry], [piston], [rod], [[cylinder]], unbalances),
 :mod:`.read_balancers` (balancer elements) and :mod:`.read_requests`
-([design], [verify]). The dataclasses are in :mod:`.schema`.
+([design], [verify]). The dataclasses are in :mod:`.schema`, the range of
+every numeric key in :mod:`.ranges`, and how files are read in
+:mod:`.source_files`.
 
 The format is documented in ``docs/scenes.md``; keep the two in step.
 """
@@ -23,9 +25,10 @@ import os
 import re
 import tomllib
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterable, Mapping
 
 from .elements import LinkageWarning
+from .ranges import KEY_RANGES, key_problem, magnitude_problem
 from .read_balancers import BalancerTables
 from .read_cylinders import CylinderTables
 from .read_engine import _MODEL_KEYS, _SAMPLING_KEYS, EngineTables
@@ -34,12 +37,14 @@ from .read_loads import LoadTables
 from .read_requests import RequestTables
 from .schema import (_MISSING, EFFECTS, MAX_SPEEDS, Cylinder, Gas, Model, Problem, Scene, SceneError, _closest,
                      _join)
+from .source_files import FileRefused, read_regular, trace_roots
 from .units import QuantityError, to_si
 
 __all__ = ["EFFECTS", "MAX_SPEEDS", "Cylinder", "Model", "Scene", "SceneError", "load_scene", "scene_from_text"]
 
 
-def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
+def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any], *, files: Mapping[str, str] | None = None,
+               trace_roots: Iterable[str | os.PathLike] | None = None) -> Scene:
     """Read and validate a scene.
 
     Parameters
@@ -47,6 +52,14 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
     path_or_mapping : path-like or mapping
         A TOML scene file, or a mapping with the same structure (as returned
         by :func:`tomllib.load`).
+    files : mapping of str to str, optional
+        The text of every trace file the scene names, by its name as written
+        (e.g. ``Scene.files`` of the scene the mapping was made from): the
+        reader then opens no trace file. By default trace files are read from
+        the scene's folder (a mapping's: the working folder).
+    trace_roots : iterable of path-like, optional
+        Folders outside the scene's folder tree that trace files may lie in
+        (besides those of the environment variable ``HARMBAL_TRACE_ROOTS``).
 
     Returns
     -------
@@ -71,8 +84,8 @@ def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any]) -> Scene:
             text = repr(data)
     else:
         path = Path(path_or_mapping)
-        return scene_from_text(read_scene_text(path), str(path))
-    return _read(data, text, source)
+        return scene_from_text(read_scene_text(path), str(path), files=files, trace_roots=trace_roots)
+    return _read(data, text, source, files, trace_roots)
 
 
 #: Longest name or label [characters]: they head tables, figures and archive coordinates.
@@ -123,39 +136,47 @@ def read_scene_text(path: Path) -> str:
     SceneError
         One problem naming the file and saying what to do otherwise.
     """
-    import stat
-
-    mode = path.stat().st_mode  # FileNotFoundError as documented
-    if not stat.S_ISREG(mode):
-        kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file (a FIFO, device or socket)"
-        raise _file_problem(path, f"is {kind}: give the path of a scene file (.toml)")
-    with path.open("rb") as file:
-        raw = file.read(MAX_SCENE_BYTES + 1)
-    if len(raw) > MAX_SCENE_BYTES:
-        raise _file_problem(path, f"is larger than {MAX_SCENE_BYTES // 1024} KiB: not a scene file (a scene is a "
-                                  "few kB of TOML)")
     try:
-        return raw.decode("utf-8-sig")  # a byte-order mark, as some editors write, is not part of the TOML
-    except UnicodeDecodeError as exc:
-        raise _file_problem(path, f"is not UTF-8 text (byte {exc.start + 1} cannot be decoded): save it as UTF-8 "
-                                  "(TOML files are UTF-8)") from None
+        return read_regular(path, MAX_SCENE_BYTES, "a scene file (.toml)")
+    except FileRefused as exc:
+        raise SceneError([Problem(str(path), "(file)", _MISSING, str(exc))]) from None
 
 
-def _file_problem(path: Path, rule: str) -> SceneError:
-    return SceneError([Problem(str(path), "(file)", _MISSING, rule)])
+def scene_from_text(text: str, source: str = "<text>", *, files: Mapping[str, str] | None = None,
+                    trace_roots: Iterable[str | os.PathLike] | None = None) -> Scene:
+    """Read and validate a scene from TOML text, naming ``source`` in errors.
 
+    Parameters
+    ----------
+    text : str
+        The scene's TOML text.
+    source : str, default "<text>"
+        Where the text came from: trace files (``[gas.trace] file``) are read
+        relative to its folder (a name in angle brackets: the working folder).
+    files : mapping of str to str, optional
+        The text of every trace file the scene names, by its name as written
+        (``Scene.files`` of a scene read before, or an archive's
+        ``scene_files``). With it the reader opens no file: a name not in the
+        mapping is a problem.
+    trace_roots : iterable of path-like, optional
+        Folders, besides the scene's own folder tree and those of
+        ``$HARMBAL_TRACE_ROOTS``, that trace files may lie in.
 
-def scene_from_text(text: str, source: str = "<text>") -> Scene:
-    """Read and validate a scene from TOML text, naming ``source`` in errors."""
+    Raises
+    ------
+    SceneError
+        Listing every problem found.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError([Problem(source, "(file)", _MISSING, f"TOML syntax error: {exc}")]) from None
-    return _read(data, text, source)
+    return _read(data, text, source, files, trace_roots)
 
 
-def _read(data: Mapping, text: str, source: str) -> Scene:
-    reader = _Reader(source)
+def _read(data: Mapping, text: str, source: str, files: Mapping[str, str] | None = None,
+          roots: Iterable[str | os.PathLike] | None = None) -> Scene:
+    reader = _Reader(source, files, roots)
     reader.problems.extend(text_problems(data, source))
     scene = reader.scene(data, text)
     if reader.problems:
@@ -177,14 +198,18 @@ _TOP_KEYS = {
 class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTables, LoadTables):
     """Walks the raw mapping, converts units, and collects problems."""
 
-    def __init__(self, source: str):
+    def __init__(self, source: str, files: Mapping[str, str] | None = None,
+                 roots: Iterable[str | os.PathLike] | None = None):
         self.source = source
         self.problems: list[Problem] = []
         self.warnings: list[str] = []
         # Files a scene names (pressure traces) are relative to the scene file; those of a mapping or a text
-        # without a file, to the working directory.
+        # without a file, to the working directory. They must lie in that folder's tree or in ``roots``.
         self.base = Path(source).parent if not source.startswith("<") else Path.cwd()
-        self.files: dict[Path, str] = {}
+        self.roots = trace_roots(roots) if files is None else ()
+        # The texts of the files given (None: read them from the file system), and of those read so far.
+        self.given = None if files is None else dict(files)
+        self.files: dict[str, str] = {}
         self.gases: list[Gas] = []
 
     # -- primitives --------------------------------------------------------
@@ -230,10 +255,20 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
             self.fail(where, value, "plain numbers are radians; this looks like degrees, write e.g. "
                       f"\"{value} deg\"")
             return math.nan
+        name = key.split("[", 1)[0]
+        if dimension == "dimensionless" and name not in KEY_RANGES:
+            raise KeyError(f"{where}: a dimensionless key needs its range in harmbal.scene.ranges.KEY_RANGES")
         if positive and not si > 0:
-            self.fail(where, value, "must be positive")
+            rule = "must be positive"
         elif nonnegative and not si >= 0:
-            self.fail(where, value, "must not be negative")
+            rule = "must not be negative"
+        else:
+            rule = key_problem(name, si) or magnitude_problem(dimension, si, positive)  # the narrower first
+        if rule:
+            # nan, not the value: a value 300 decades off would overflow the reader's own arithmetic (r², a blank's
+            # area); every check downstream skips a nan, whose problem is this one.
+            self.fail(where, value, rule)
+            return math.nan
         return si
 
     def choice(self, table: Mapping, key: str, path: str, options: tuple, default: Any) -> Any:
@@ -243,7 +278,11 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
             return default
         return value
 
-    def integer(self, table: Mapping, key: str, path: str, default: Any, minimum: int) -> int | None:
+    def integer(self, table: Mapping, key: str, path: str, default: Any, minimum: int,
+                maximum: int | None = None) -> int | None:
+        """An integer from ``minimum`` to ``maximum`` (default: the top of the
+        key's range in :data:`~.ranges.KEY_RANGES`, which every integer key has)."""
+        bounds = KEY_RANGES[key]
         value = table.get(key, default)
         if value is None:
             return None
@@ -252,6 +291,10 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
             return default
         if value < minimum:
             self.fail(_join(path, key), value, f"must be at least {minimum}")
+            return default
+        top = int(bounds.high) if maximum is None else maximum
+        if value > top:
+            self.fail(_join(path, key), value, f"must be at most {top}: {bounds.why}")
             return default
         return value
 
@@ -315,4 +358,5 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
                           "speed yet: leave out the effect or the levers")
         return Scene(**header, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts, levers=levers,
                      model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
-                     flywheel=flywheel, loads=loads, outlines=outlines, source=self.source, source_text=text)
+                     flywheel=flywheel, loads=loads, outlines=outlines, source=self.source, source_text=text,
+                     files=tuple(sorted(self.files.items())))

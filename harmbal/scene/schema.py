@@ -15,6 +15,7 @@ import numpy as np
 
 from .elements import LeverBalancer, Shaft
 from .interfaces import LoadsRequest
+from .ranges import MAGNITUDES, MAX_SAMPLES, MAX_SPEEDS, NEGLIGIBLE_RANGE  # noqa: F401  (re-exported)
 from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
 from .shapes import Outline
 
@@ -38,13 +39,7 @@ DEFAULT_MAX_ORDER = 12
 #: less than the scatter of the first-order force from engine to engine that piston weight classes allow.
 #: docs/conventions.md, "Zero, negligible, free".
 DEFAULT_NEGLIGIBLE = 1e-3
-#: The values ``[model] negligible`` may take (below 1e-12 it would only relabel round-off).
-NEGLIGIBLE_RANGE = (1e-12, 0.1)
-#: Most samples per revolution the accuracy setting chooses (harmbal.model.sampling); what the
-#: scene asks for must be resolvable within it.
-MAX_SAMPLES = 1 << 16
-#: Most speeds a sweep may ask for (one evaluation serves them all; 10⁶ keeps the Datasets ~1 GB at most).
-MAX_SPEEDS = 1_000_000
+# NEGLIGIBLE_RANGE, MAX_SAMPLES and MAX_SPEEDS are defined with the other ranges (.ranges) and imported above.
 
 
 # --------------------------------------------------------------------------
@@ -296,6 +291,9 @@ class Scene:
     loads: LoadsRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
+    #: The text of each file the scene read (its pressure traces), by name as written: (name, text) pairs, so
+    #: that the scene can be read again from ``source_text`` without the file system (archives store them).
+    files: tuple[tuple[str, str], ...] = field(default=(), repr=False)
 
     def with_negligible(self, negligible: float) -> "Scene":
         """The same scene judging components at or below ``negligible`` × one
@@ -315,6 +313,9 @@ class Scene:
         values = np.atleast_1d(np.asarray(speeds, dtype=float))
         if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values) & (values > 0)):
             raise ValueError("speeds must be a non-empty 1-D sequence of finite speeds > 0 [rad/s]")
+        bounds = MAGNITUDES["speed"]
+        if not all(v in bounds for v in (values.min(), values.max())):
+            raise ValueError(f"speeds must lie in {bounds.interval()} (the speeds' range, docs/scenes.md)")
         if np.unique(values).size != values.size:
             raise ValueError("speeds must be distinct")
         return replace(self, speeds=tuple(values.tolist()))

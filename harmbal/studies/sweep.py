@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..labelled import CONVENTIONS, Speeds, dataset, variable
+from ..model.budget import check_budget
 from ..model.evaluate import evaluate
 from ..orders.linear import LinearPhasors, combine, geometry_key, linear_phasors, peaks, slot_values, time_basis
 from ..orders.spectrum import ROTATION, ZERO_RTOL, negligible_level
@@ -493,7 +494,7 @@ def _si_values(source: str, key: str, vals) -> tuple[np.ndarray, set[str | None]
 
 def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backend: str,
           progress: Callable[[int, int], None] | None = None, geometry_keys: frozenset = frozenset(),
-          design: bool = False, typed: Mapping[str, set] | None = None) -> _Plan:
+          design: bool = False, typed: Mapping[str, set] | None = None, budget: dict | None = None) -> _Plan:
     """Sort the keys, read each distinct geometry once and keep what every
     block of variants needs (``values``: each key's values; ``variants``:
     which of them each variant takes; ``geometry_keys``: keys to treat as
@@ -533,6 +534,8 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
 
     columns = [keys.index(k) for k in geometry]
     combos = variants.combinations(columns)
+    if budget is not None:  # now that the distinct geometries are known, before any of them is read
+        check_budget(scene, "sweep", sweep={**budget, "geometries": len(combos), "geometry_key": ", ".join(geometry)})
     bases, slot_rows, designs = [], [], []
     for combo in combos:
         numbers = variants.values_of(combo, columns)
@@ -546,7 +549,7 @@ def _plan(scene: Scene, values: dict[str, Sequence], variants: _Variants, backen
         # A geometry key that also moves a linear key's slot (a rod split and a rod mass): both are geometry.
         clash = {k for k, coefficients in linear.items() if any(slots_here[s] != base_slots[s] for s in coefficients)}
         if clash:
-            return _plan(scene, values, variants, backend, progress, geometry_keys | clash, design, typed)
+            return _plan(scene, values, variants, backend, progress, geometry_keys | clash, design, typed, budget)
         bases.append(linear_phasors(variant, backend=backend))
         if design:
             designs.append(_design_basis(variant, bases[-1], designs[0] if designs else None, geometry))
@@ -848,11 +851,11 @@ def _angle(values):
 
 def _run(scene: Scene, values: dict, variants: _Variants, orders, peaks: bool, peak_samples: int, backend: str,
          progress: Callable[[int, int], None] | None, phasors: bool, chunks: int | None, dim: str, attrs: dict,
-         design: bool = False, typed: Mapping[str, set] | None = None):
+         design: bool = False, typed: Mapping[str, set] | None = None, budget: dict | None = None):
     kept = _orders(scene, orders)
     if chunks is not None and (isinstance(chunks, bool) or not isinstance(chunks, (int, np.integer)) or chunks < 1):
         raise ValueError(f"chunks must be a positive number of variants: {chunks!r}")
-    plan = _plan(scene, values, variants, backend, progress, design=design, typed=typed)
+    plan = _plan(scene, values, variants, backend, progress, design=design, typed=typed, budget=budget)
     speeds = Speeds(scene.speeds)
     options = {"orders": kept, "peak_samples": peak_samples if peaks else None,
                "w2": 1.0 if speeds.several else float(speeds.w2), "phasors": phasors}
@@ -868,6 +871,8 @@ def _run(scene: Scene, values: dict, variants: _Variants, orders, peaks: bool, p
 def _given_values(values) -> np.ndarray | list:
     """A key's values: a numeric array if they are all plain numbers (taken as
     SI without a loop over them), else a list of numbers and unit strings."""
+    if isinstance(values, np.ndarray) and values.dtype.kind in "iuf":  # as given: no Python object per value
+        return values if values.ndim == 1 else np.atleast_1d(values).ravel()
     array = np.atleast_1d(np.asarray(values, dtype=object))
     if array.size and all(isinstance(v, Real) and not isinstance(v, (bool, np.bool_)) for v in array):
         return np.array(array.tolist())
@@ -976,7 +981,10 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
     ------
     SceneError
         A key that is not a key path or not in the scene, a value the scene
-        reader refuses (naming the key), or a scene the sweep cannot vary.
+        reader refuses (naming the key), a scene the sweep cannot vary, or a
+        sweep whose estimated memory or time exceeds the budget
+        (:func:`harmbal.model.budget.check_budget`; ``chunks`` holds only a
+        few chunks at once).
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}: {mode!r}")
@@ -990,11 +998,29 @@ def sweep(scene: Scene | str | os.PathLike, parameters: Mapping[str, Sequence], 
     lengths = [len(v) for v in values.values()]
     if mode == "zip" and len(set(lengths)) > 1:
         raise ValueError(f"zip mode needs equally many values of every key: {dict(zip(values, lengths))}")
+    variants = _Variants(tuple(lengths), mode)
+    largest = max(values, key=lambda k: len(values[k]))
+    budget = _budget(scene, variants.count, largest, f"{len(values[largest])} values", orders, peaks, peak_samples,
+                     phasors, chunks, design, sum(lengths))
     attrs = {"title": f"harmbal sweep: {scene.name}", "mode": mode, "parameters": list(values)}
     if mode == "grid":
         attrs["grid_shape"] = lengths
-    return _run(scene, values, _Variants(tuple(lengths), mode), orders, peaks, peak_samples, backend, progress,
-                phasors, chunks, "variant", attrs, design)
+    return _run(scene, values, variants, orders, peaks, peak_samples, backend, progress,
+                phasors, chunks, "variant", attrs, design, budget=budget)
+
+
+def _budget(scene: Scene, variants: int, key: str, value: Any, orders, peaks: bool, peak_samples: int, phasors: bool,
+            chunks: int | None, design: bool, values: int) -> dict:
+    """Refuse a sweep whose variants alone exceed the memory or time budget
+    (:func:`harmbal.model.budget.check_budget`); the estimate's keywords, for
+    :func:`_plan` to check again with the number of distinct geometries."""
+    chunked = isinstance(chunks, (int, np.integer)) and not isinstance(chunks, bool) and chunks >= 1  # else: _run says
+    budget = {"variants": int(variants), "key": key, "value": value, "phasors": bool(phasors), "peaks": bool(peaks),
+              "peak_samples": int(peak_samples), "design": bool(design), "chunks": int(chunks) if chunked else None,
+              "values": int(values),
+              "orders": scene.sampling.max_order + 1 if orders is None else len(set(np.atleast_1d(orders).tolist()))}
+    check_budget(scene, "sweep", sweep=budget)
+    return budget
 
 
 def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Normal | Uniform | WeightClasses],
@@ -1047,6 +1073,9 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
         raise ValueError(f"n must be a positive integer: {n!r}")
     if not tolerances:
         raise ValueError("give at least one toleranced key")
+    # Before any draw: n samples of every key, and the variants they make.
+    budget = _budget(scene, int(n), "n", int(n), orders, peaks, peak_samples, phasors, chunks, design,
+                     int(n) * len(tolerances))
     rng = np.random.default_rng(seed)
     raw = tomllib.loads(scene.source_text) if scene.source_text else {}
     values, typed = {}, {}
@@ -1085,7 +1114,7 @@ def monte_carlo(scene: Scene | str | os.PathLike, tolerances: Mapping[str, Norma
              "samples": int(n), "seed": "none" if seed is None else str(seed),
              "tolerances": [f"{k}: {d!r}" for k, d in tolerances.items()]}
     ds = _run(scene, values, _Variants((int(n),) * len(values), "zip"), orders, peaks, peak_samples, backend,
-              progress, phasors, chunks, "sample", attrs, design, typed)
+              progress, phasors, chunks, "sample", attrs, design, typed, budget)
     return _summarise(ds, percentiles, force_limit, moment_limit)
 
 

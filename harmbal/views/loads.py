@@ -10,6 +10,7 @@ import numpy as np
 from ..labelled import Speeds, dataset
 from ..model.bearings import (affine_extremes, crank_train, fastener_load, main_bearings, ramp_torque,
                               shaft_bearings, to_w)
+from ..model.budget import check_budget
 from ..model.gas import gas_loads
 from ..model.linkage import to_engine
 from ..model.sampling import choose_samples, simulates_gas
@@ -80,6 +81,7 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         a ``[loads.ramp]``, ``ramp_torque`` [N m] (I·n·α, on the shaft) and
         ``ramp_power`` [W] at the ramp's end speed.
     """
+    check_budget(scene, "loads")  # refused before anything is allocated if over the memory or time budget
     n = samples_per_rev or max(choose_samples(scene), PEAK_SAMPLES)
     gas = gas_loads(scene, n) if simulates_gas(scene) else None
     theta = gas.theta if gas is not None else 2 * np.pi * np.arange(n) / n

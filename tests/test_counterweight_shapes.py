@@ -500,3 +500,15 @@ def test_shafts_and_pairs_are_written_as_sized_blanks():
     assert "pair: blank sized, sector (shape 1) half_angle = " in blanks
     assert "[[balance_shaft.unbalance.shape]]" in design.text and "[[lanchester_pair.shape]]" in design.text
     assert bool(hb.verify(design.scene).passed.all())
+
+
+def test_a_sizing_that_does_not_converge_is_refused_not_raised(monkeypatch):
+    """Brent's method on a bracketed root converges in ~60 steps; should it
+    not within its limit, sizing refuses with a DesignError (issue 32)."""
+    import scipy.optimize
+
+    real = scipy.optimize.brentq
+    monkeypatch.setattr(scipy.optimize, "brentq", lambda *a, **k: real(*a, **{**k, "maxiter": 2}))
+    blank = _blank([Sector(0.09, 0.5)])
+    with pytest.raises(DesignError, match="did not converge"):
+        size_blank(blank, blank.unbalance, (0, "half_angle"))

@@ -158,8 +158,13 @@ def size_blank(blank: Blank, target: float, solve: tuple[int, str] | None = None
     values = np.array([excess(p) for p in grid])
     roots = [grid[i] for i in np.flatnonzero(values == 0)]
     for i in np.flatnonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0):
-        roots.append(brentq(excess, grid[i], grid[i + 1], xtol=1e-15 * (high - low), rtol=4 * np.finfo(float).eps,
-                            maxiter=200))
+        # A bracketed root converges in ~60 steps (bisection's worst case to 1e-15); past 200, refuse, never raise.
+        root, found = brentq(excess, grid[i], grid[i + 1], xtol=1e-15 * (high - low), rtol=4 * np.finfo(float).eps,
+                             maxiter=200, full_output=True, disp=False)
+        if not found.converged:
+            raise DesignError(f"sizing the blank's {solve[1]} did not converge near {_text(solve[1], root)} "
+                              f"({found.iterations} iterations): check the blank's shapes")
+        roots.append(root)
     if not roots:
         smallest, largest = unbalance_range(blank, solve, bounds)
         part, name = blank.parts[solve[0]], solve[1]

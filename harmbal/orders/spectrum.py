@@ -85,6 +85,29 @@ def rotating_split(z: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return co, counter
 
 
+def transverse_split(per_axis: np.ndarray, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    """Co- and counter-rotating phasors of the transverse part of a force or
+    moment given per axis.
+
+    Parameters
+    ----------
+    per_axis : ndarray, shape (..., 3, order)
+        Per-order phasors of the x, y and z components (order from 0).
+    sense : {1, -1}
+        The crank's sense of rotation: 1 counterclockwise, -1 clockwise seen
+        from the front (``Scene.sense``).
+
+    Returns
+    -------
+    co, counter : ndarray, shape (..., order)
+        The phasors of the vector turning with the crank and against it, of
+        w = v_z + i·v_t with t = −sense·y the direction 90° ahead of +z in the
+        direction of rotation (docs/conventions.md, "Co- and counter-rotating
+        phasors"): "co" turns with the crank whatever its sense.
+    """
+    return rotating_split(per_axis[..., 2, :], -sense * per_axis[..., 1, :])
+
+
 #: Round-off of the model and the FFT in units of ε·max|C| (measured against the 50-digit
 #: reference: up to 1.7 on the bundled engines, tests/test_sampling.py).
 ROUND_OFF = 4

@@ -6,8 +6,16 @@ results into :class:`xarray.Dataset` and :class:`xarray.DataTree` here, in one
 step each with the final coordinates and attributes (xarray's general
 constructors align, merge and copy, which costs ten times the arithmetic of a
 whole analysis; :func:`dataset` and :func:`tree` skip that work for inputs
-that are aligned by construction, and fall back to the public constructors
-if xarray's internals ever change).
+that are aligned by construction).
+
+The direct path writes xarray's private slots. It is used only while
+:func:`fast_path` holds: at first use it builds a small sample of every kind
+of object both ways, directly and through xarray's public constructors
+(``xr.Variable``, ``xr.Dataset``, ``xr.DataTree.from_dict``), and compares
+them slot by slot; any difference, missing slot or error sends the process to
+the public constructors, which give the same objects (``tests/test_labelled.py``
+forces them and compares every bundled scene's outputs bit for bit), only
+slower. pyproject.toml pins the xarray releases this was tested with.
 
 Speeds. Inertial loads at constant speed are the unit-speed loads times ω².
 A variable over ``speed`` of a modest sweep (at most :data:`EAGER_VALUES`
@@ -231,11 +239,9 @@ class Speeds:
             return variable(self.lead + tuple(dims), values, attrs)
         lazy = speed_scaled(self.w2, unit, constant)
         data = indexing.LazilyIndexedArray(lazy, _whole(lazy.ndim))
-        if not _direct_variables():  # pragma: no cover - an xarray that changed
-            return xr.Variable(self.lead + dims, data, attrs)
-        var = object.__new__(xr.Variable)
-        var._dims, var._data, var._attrs, var._encoding = self.lead + tuple(dims), data, dict(attrs), None
-        return var
+        if not fast_path():
+            return xr.Variable(self.lead + tuple(dims), data, attrs)
+        return _direct_variable(self.lead + tuple(dims), data, attrs)
 
 
 @functools.cache
@@ -249,16 +255,28 @@ def _whole(ndim: int):
 def dataset(data: dict, coords: dict, attrs: dict):
     """A Dataset from Variables (or ``(dims, values, attrs)`` tuples) that
     are aligned by construction: dimension coordinates are indexed, nothing
-    is merged or copied. Falls back to ``xarray.Dataset`` if xarray's
-    internals differ from what this expects."""
-    import xarray as xr
-
+    is merged or copied. Through ``xarray.Dataset`` (the same Dataset,
+    slower) when :func:`fast_path` does not hold."""
     data = {name: _as_variable(v) for name, v in data.items()}
     coords = {name: _as_variable(v) for name, v in coords.items()}
-    try:
-        return _dataset_direct(data, coords, attrs)
-    except (AttributeError, TypeError, ValueError, ImportError):  # pragma: no cover - an xarray that changed
-        return with_speed_indexes(xr.Dataset(data, coords, attrs))
+    if not fast_path():
+        return _dataset_public(data, coords, attrs)
+    return _dataset_direct(data, coords, attrs)
+
+
+def _dataset_public(data: dict, coords: dict, attrs: dict):
+    """The Dataset of :func:`_dataset_direct` through xarray's public constructors: the same indexes
+    (given, so that xarray does not make its own, which imports pint to check for units), the same
+    order of variables (coordinates first)."""
+    import xarray as xr
+
+    indexes = {name: _pandas_index(name, coords[name], dim) for name, dim in _index_dims(coords).items()}
+    indexed = {name: index.create_variables({name: coords[name]})[name] for name, index in indexes.items()}
+    # Indexed coordinates first: xarray orders the indexes as it is given the coordinates.
+    coordinates = xr.Coordinates({**indexed, **{n: v for n, v in coords.items() if n not in indexed}}, indexes=indexes)
+    ds = xr.Dataset(data, coordinates, attrs)
+    order = list(coords) + [name for name in data if name not in coords]
+    return ds[order] if list(ds.variables) != order else ds
 
 
 #: Coordinates indexed along another dimension than their own name: ``rpm`` along ``speed``.
@@ -304,32 +322,23 @@ def variable(dims, values, attrs: dict | None = None):
         if not isinstance(values, (list, tuple, float, int, bool, complex, np.generic)):
             return xr.Variable(dims, values, attrs)
         values = np.asarray(values)
-    if values.dtype.kind not in _PLAIN_KINDS or values.ndim != len(dims) or not _direct_variables():
+    if values.dtype.kind not in _PLAIN_KINDS or values.ndim != len(dims) or not fast_path():
         return xr.Variable(dims, values, attrs)
+    return _direct_variable(dims, values, attrs)
+
+
+def _direct_variable(dims: tuple, data, attrs: dict | None):
+    """What ``xarray.Variable(dims, data, attrs)`` makes of a plain array or a lazily indexed one (both
+    stored as given), its slots assigned: valid only while :func:`fast_path` holds."""
+    import xarray as xr
+
     var = object.__new__(xr.Variable)
-    var._dims, var._data, var._attrs, var._encoding = dims, values, dict(attrs) if attrs else None, None
+    var._dims, var._data, var._attrs, var._encoding = dims, data, dict(attrs) if attrs else None, None
     return var
 
 
 #: dtype kinds that ``xarray.Variable`` stores as the numpy array it is given.
 _PLAIN_KINDS = frozenset("biufcUS")
-
-
-@functools.cache
-def _direct_variables() -> bool:
-    """Whether this xarray's Variable is what :func:`variable` assumes (its
-    four slots, and a plain array stored as given); checked once per process."""
-    import xarray as xr
-
-    values = np.arange(3.0)
-    try:
-        reference = xr.Variable(("a",), values, {"u": 1})
-        direct = object.__new__(xr.Variable)
-        direct._dims, direct._data, direct._attrs, direct._encoding = ("a",), values, {"u": 1}, None
-        return (set(xr.Variable.__slots__) == {"_dims", "_data", "_attrs", "_encoding"}
-                and reference._data is values and direct.identical(reference))
-    except (AttributeError, TypeError):  # pragma: no cover - an xarray that changed
-        return False
 
 
 def _dataset_direct(data: dict, coords: dict, attrs: dict):
@@ -341,16 +350,22 @@ def _dataset_direct(data: dict, coords: dict, attrs: dict):
             if dims.setdefault(dim, size) != size:
                 raise ValueError(f"{name}: dimension {dim} has sizes {dims[dim]} and {size}")
         variables[name] = var
-    for name, var in coords.items():
-        if var.dims == (name,):
-            indexes[name], variables[name] = _indexed(name, var)
-    for name, dim in INDEXED_ALONG.items():
-        var = coords.get(name)
-        if var is not None and var.dims == (dim,) and dim in indexes:
-            indexes[name], variables[name] = _indexed(name, var, dim)
+    for name, dim in _index_dims(coords).items():
+        indexes[name], variables[name] = _indexed(name, coords[name], dim)
     names = list(coords) + [n for n in data if n not in coords]
     return xr.Dataset._construct_direct({n: variables[n] for n in names}, set(coords), dims, attrs=dict(attrs),
                                         indexes=indexes)
+
+
+def _index_dims(coords: dict) -> dict:
+    """The coordinates a Dataset made here indexes, each with the dimension it indexes: every dimension
+    coordinate, then those of :data:`INDEXED_ALONG` whose dimension has its coordinate."""
+    along = {name: name for name, var in coords.items() if var.dims == (name,)}
+    for name, dim in INDEXED_ALONG.items():
+        var = coords.get(name)
+        if var is not None and var.dims == (dim,) and dim in along:
+            along[name] = dim
+    return along
 
 
 def _indexed(name: str, variable, dim: str | None = None):
@@ -382,7 +397,7 @@ def _indexed(name: str, variable, dim: str | None = None):
 def _pandas_index(name: str, variable, dim: str):
     # Built directly: PandasIndex.from_variables checks for unit-aware arrays and so imports pint (60 ms).
     import pandas as pd
-    from xarray.core.indexes import PandasIndex
+    from xarray.indexes import PandasIndex
 
     return PandasIndex(pd.Index(variable.values, name=name), dim, coord_dtype=variable.dtype)
 
@@ -395,19 +410,22 @@ def tree(root_attrs: dict, groups: dict):
     :data:`CF_CONVENTIONS` unless they give it) and one child per Dataset in
     ``groups`` (name → Dataset, no coordinates in the root), the Datasets
     attached as they are instead of copied and re-aligned."""
+    root_attrs = {"Conventions": CF_CONVENTIONS, **root_attrs}
+    if not fast_path():
+        return _tree_public(root_attrs, groups)
+    return _tree_direct(root_attrs, groups)
+
+
+def _tree_public(root_attrs: dict, groups: dict):
     import xarray as xr
 
-    root_attrs = {"Conventions": CF_CONVENTIONS, **root_attrs}
-    try:
-        return _tree_direct(root_attrs, groups)
-    except (AttributeError, TypeError):  # pragma: no cover - an xarray that changed
-        return xr.DataTree.from_dict({"/": xr.Dataset(attrs=root_attrs), **{f"/{k}": v for k, v in groups.items()}})
+    return xr.DataTree.from_dict({"/": xr.Dataset(attrs=root_attrs), **{f"/{k}": v for k, v in groups.items()}})
 
 
 def _tree_direct(root_attrs: dict, groups: dict):
     import xarray as xr
 
-    root = xr.DataTree(dataset({}, {}, root_attrs))
+    root = xr.DataTree(_dataset_direct({}, {}, root_attrs))
     for name, ds in groups.items():
         node = xr.DataTree.__new__(xr.DataTree)
         node._set_node_data(ds)
@@ -417,3 +435,92 @@ def _tree_direct(root_attrs: dict, groups: dict):
         root._children[name] = node
         node._parent = root
     return root
+
+
+@functools.cache
+def fast_path() -> bool:
+    """Whether this process builds xarray objects directly (:func:`variable`,
+    :func:`dataset`, :func:`tree`, :meth:`Speeds.variable`) rather than
+    through xarray's public constructors.
+
+    Decided once per process, at first use: a sample of every kind of object
+    built here (plain and lazily indexed variables, indexed coordinates,
+    ``rpm`` indexed along ``speed``, a tree of two groups) is built both ways
+    and the direct objects must equal the public ones slot by slot (every
+    slot of their classes set alike, values to the bit, indexes equal) and
+    select alike. Any difference or error means this xarray's internals are
+    not the ones the direct path was written for: the public constructors
+    then build everything, the same objects, only slower.
+
+    Returns
+    -------
+    bool
+        True if the direct path is used.
+    """
+    try:
+        return _direct_matches_public()
+    except Exception:  # noqa: BLE001 - whatever an xarray with other internals raises, the answer is "no"
+        return False
+
+
+def _direct_matches_public() -> bool:
+    """The check of :func:`fast_path`: the sample built directly and publicly, compared."""
+    import xarray as xr
+    from xarray.core import indexing
+
+    speeds = Speeds([10.0, 20.0, 30.0])
+    lazy = indexing.LazilyIndexedArray(speed_scaled(speeds.w2, np.arange(3.0), np.ones(3)), _whole(2))
+    coords = [("speed", ("speed",), speeds.values, {"units": "rad/s"}), ("rpm", ("speed",), speeds.rpm, {"units": "rpm"}),
+              ("axis", ("axis",), np.array(AXES), None), ("order", ("order",), np.arange(1, 3), {"long_name": "n"})]
+    data = [("force", ("speed", "axis"), np.outer(speeds.w2, [1.0, -2.0, 0.5]), {"units": "N"}),
+            ("phasor", ("order", "axis"), np.ones((2, 3)) * (1 + 2j), None), ("free", ("order",), np.array([True, False]), {}),
+            ("scale", (), np.array(2.5), {"units": "N"}), ("label", ("axis",), np.array([b"a", b"b", b"c"]), None),
+            ("lazy", ("speed", "axis"), lazy, {"units": "N"})]
+
+    def build(make_variable, make_dataset, make_tree):
+        made = [{name: make_variable(dims, values, attrs) for name, dims, values, attrs in kind} for kind in (data, coords)]
+        group = make_dataset(*made, {"title": "sample"})
+        return made, group, make_tree({"source": "sample"}, {"a": group, "b": make_dataset({}, made[1], {})})
+
+    direct = build(_direct_variable, _dataset_direct, _tree_direct)
+    public = build(xr.Variable, _dataset_public, _tree_public)
+    rpm = float(speeds.rpm[1])
+    return (_same_state(direct, public) and direct[2].identical(public[2])
+            and direct[1].sel(rpm=rpm, axis="y").identical(public[1].sel(rpm=rpm, axis="y")))
+
+
+def _same_state(a, b, seen: set | None = None) -> bool:
+    """Whether ``a`` and ``b`` hold the same state: containers item by item in order, arrays to the bit,
+    other objects slot by slot and attribute by attribute (an object whose state cannot be read is not the
+    same). A pair met again (a tree's parent links lead back to it) is being compared already."""
+    import pandas as pd
+
+    if a is b or _no_mapping(a) and _no_mapping(b):
+        return True
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, np.ndarray):
+        return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    if isinstance(a, (str, bytes, int, float, complex, type(None), set, frozenset, np.dtype, np.generic)):
+        return bool(a == b)
+    if isinstance(a, pd.Index):
+        return a.equals(b) and a.dtype == b.dtype and a.name == b.name
+    seen = set() if seen is None else seen
+    if (id(a), id(b)) in seen:
+        return True
+    seen.add((id(a), id(b)))
+    if isinstance(a, dict):
+        return list(a) == list(b) and all(_same_state(a[k], b[k], seen) for k in a)
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(_same_state(x, y, seen) for x, y in zip(a, b))
+    slots = sorted({s for cls in type(a).__mro__ for s in getattr(cls, "__slots__", ()) if s != "__weakref__"})
+    if not slots and not hasattr(a, "__dict__"):
+        return False
+    return (all(hasattr(a, s) == hasattr(b, s) and (not hasattr(a, s) or _same_state(getattr(a, s), getattr(b, s), seen))
+                for s in slots)
+            and _same_state(getattr(a, "__dict__", {}), getattr(b, "__dict__", {}), seen))
+
+
+def _no_mapping(value) -> bool:
+    """None or an empty dict: one state to xarray, which makes an empty attrs or encoding dict where read."""
+    return value is None or isinstance(value, dict) and not value

@@ -72,3 +72,18 @@ def test_nothing_is_deferred_once_a_library_is_in_use():
     if not _installed("dask"):
         pytest.skip("needs dask")
     assert _run(code) == "False"
+
+
+def test_nothing_is_deferred_when_xarray_would_not_answer_from_the_entries():
+    # Two ways an xarray release could move: its entries grow an attribute the deferred ones do not
+    # answer, or its check stops reading the cache. Either way the entries are taken out again.
+    code = ("from xarray.namedarray import pycompat\n"
+            "from harmbal.reporting.lazy_imports import defer_duck_array_imports\n"
+            "pycompat.DuckArrayModule.__annotations__ = {**pycompat.DuckArrayModule.__annotations__, 'chunks': 'x'}\n"
+            "print(defer_duck_array_imports(), sorted(pycompat._cached_duck_array_modules))\n")
+    assert _run(code) == "[] []"
+    code = ("from xarray.namedarray import pycompat\n"
+            "from harmbal.reporting.lazy_imports import defer_duck_array_imports\n"
+            "pycompat.array_type = lambda mod: (object,)\n"
+            "print(defer_duck_array_imports(), sorted(pycompat._cached_duck_array_modules))\n")
+    assert _run(code) == "[] []"

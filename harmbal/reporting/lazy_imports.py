@@ -14,9 +14,13 @@ someone, and xarray's own answer from then on; ``is_dask_collection``
 likewise answers False until dask is imported. Chunked sweeps import dask
 themselves (harmbal.studies.sweep) and then see the real types.
 
-Only private xarray names are touched, each looked up defensively: with an
-xarray that lacks them, nothing is changed and xarray behaves as it always
-did.
+Only private xarray names are touched, each looked up defensively, and the
+entries are checked once installed: xarray's check must answer from them
+(``array_type`` gives no types, nothing imported) and xarray's entries must
+have no attribute beyond the four the deferred ones answer. With an xarray
+that lacks the names or fails the check, the entries are taken out again,
+nothing is deferred and xarray behaves as it always did (only slower).
+pyproject.toml pins the xarray releases this was tested with.
 """
 
 from __future__ import annotations
@@ -52,10 +56,34 @@ def defer_duck_array_imports() -> list[str]:
         elif name not in cache and name not in sys.modules:
             cache[name] = _deferred(module_type, cache, name, arrays)
             deferred.append(name)
+    if not _answered_from_cache(pycompat, module_type, deferred):
+        for name in deferred:
+            if isinstance(cache.get(name), _Deferred):
+                del cache[name]
+        return []
     collection = getattr(utils, "is_dask_collection", None)
     if "dask" in deferred and collection is not None and not getattr(collection, "_harmbal_deferred", False):
         utils.is_dask_collection = _deferred_collection(collection)
     return deferred
+
+
+#: The attributes of xarray's DuckArrayModule that the deferred entries answer.
+ANSWERED = frozenset({"module", "version", "type", "available"})
+
+
+def _answered_from_cache(pycompat, module_type, deferred: list[str]) -> bool:
+    """Whether xarray answers its array-type checks from the deferred entries: no attribute of its
+    entries is left unanswered, and ``array_type`` of each deferred library is empty without importing it."""
+    attributes = set(getattr(module_type, "__annotations__", {}))
+    if not attributes or not attributes <= ANSWERED:
+        return False
+    array_type = getattr(pycompat, "array_type", None)
+    if array_type is None:
+        return False
+    for name in deferred:
+        if name not in sys.modules and (array_type(name) != () or name in sys.modules):
+            return False
+    return True
 
 
 class _Deferred:

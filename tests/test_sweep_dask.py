@@ -17,7 +17,7 @@ import harmbal as hb
 from harmbal.cli import main
 from harmbal.io.archive import open_archive, save, save_and_compute
 from harmbal.labelled import tree
-from harmbal.studies import sweep as sw
+from harmbal.studies import evaluate as ev
 
 dask = pytest.importorskip("dask")
 
@@ -48,7 +48,7 @@ def test_a_chunked_sweep_is_lazy_and_equals_the_sweep_in_memory(monkeypatch):
     # Other blocks than the in-memory sweep's: BLAS may pick another kernel, round-off apart.
     _assert_same(lazy.compute(), eager, exact=False)
     # The same blocks: bit for bit.
-    monkeypatch.setattr(sw, "_BLOCK", 20)
+    monkeypatch.setattr(ev, "BLOCK", 20)
     _assert_same(lazy.compute(), hb.sweep(SCENE, GRID, orders=[0, 1, 2, 4], peaks=True, peak_samples=90))
 
 
@@ -62,13 +62,13 @@ def test_a_chunked_sweep_at_several_speeds_scales_by_omega_squared():
 
 def test_each_chunk_is_evaluated_once_for_the_archive_and_the_table(tmp_path, monkeypatch):
     calls = []
-    evaluate = sw._evaluate_block
+    evaluate = ev.evaluate_block
 
-    def counted(plan, start, stop, **options):
+    def counted(plan, start, stop, options):
         calls.append((start, stop))
-        return evaluate(plan, start, stop, **options)
+        return evaluate(plan, start, stop, options)
 
-    monkeypatch.setattr(sw, "_evaluate_block", counted)
+    monkeypatch.setattr(ev, "evaluate_block", counted)
     lazy = hb.sweep(SCENE, GRID, orders=[1, 2], chunks=50)
     calls.clear()  # the first variant, evaluated for the arrays' shapes
     from harmbal.reporting.sweeps import table_inputs
@@ -77,7 +77,7 @@ def test_each_chunk_is_evaluated_once_for_the_archive_and_the_table(tmp_path, mo
     assert sorted(calls) == [(0, 50), (50, 100), (100, 150), (150, 200), (200, 231)]
     assert "force" not in summary and isinstance(summary["force_amplitude"].data, np.ndarray)
     stored = open_archive(path)["sweep"].ds
-    monkeypatch.setattr(sw, "_evaluate_block", evaluate)
+    monkeypatch.setattr(ev, "evaluate_block", evaluate)
     _assert_same(stored, lazy.compute())
 
 

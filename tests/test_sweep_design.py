@@ -413,29 +413,32 @@ def test_blocks_of_variants_give_the_whole_to_round_off():
     # What chunking relies on: any block of variants, evaluated from the plan alone, gives those variants'
     # results. BLAS picks its kernel by the block's shape, so blocks agree with the whole to round-off, and
     # equal blocks bit for bit.
-    from harmbal.studies import sweep as sw
+    from harmbal.studies.evaluate import BlockOptions, evaluate_all, evaluate_block
+    from harmbal.studies.plan import make_plan
+    from harmbal.studies.requests import KeyValues
+    from harmbal.studies.variants import Variants
 
     scene = hb.load_scene(ENGINES / "v-twin-90.toml")
     values = {"geometry.rod_length": [0.12, 0.13, 0.14], "piston.mass": list(np.linspace(0.36, 0.44, 11)),
               "rod.mass": list(np.linspace(0.34, 0.42, 7))}
-    plan = sw._plan(scene, values, sw._Variants((3, 11, 7), "grid"), "scipy")
-    options = {"orders": np.arange(13), "peak_samples": 90, "w2": 1.0, "phasors": True}
-    whole = sw._evaluate_block(plan, 0, 231, **options)
+    plan = make_plan(scene, KeyValues(values, Variants((3, 11, 7), "grid")))
+    options = BlockOptions(orders=np.arange(13), peak_samples=90, w2=1.0, phasors=True)
+    whole = evaluate_block(plan, 0, 231, options)
     assert set(whole) == {"force", "moment", "force_rotating", "moment_rotating", "force_amplitude",
                           "moment_amplitude", "peak_force", "peak_moment", *values}
     np.testing.assert_array_equal(whole["piston.mass"], np.tile(np.repeat(values["piston.mass"], 7), 3))
     for size in (1, 5, 64):
-        blocks = sw._evaluate(plan, size, **options)
+        blocks = evaluate_all(plan, options, size)
         for name, value in whole.items():  # to round-off of each output's largest value
             assert_close_to_scale(blocks[name], value, np.abs(value).max(), err_msg=name)
-    again = sw._evaluate_block(plan, 0, 231, **options)
+    again = evaluate_block(plan, 0, 231, options)
     assert all(np.array_equal(again[name], whole[name]) for name in whole)
 
 
 def test_amplitudes_only_equal_the_full_sweep(monkeypatch):
-    from harmbal.studies import sweep as sw
+    from harmbal.studies import evaluate as ev
 
-    monkeypatch.setattr(sw, "_BLOCK", 7)  # several blocks, the last one short
+    monkeypatch.setattr(ev, "BLOCK", 7)  # several blocks, the last one short
     keys = {"geometry.rod_length": [0.12, 0.14], "piston.mass": [0.38, 0.40, 0.42], "rod.mass": [0.36, 0.38, 0.4]}
     full = hb.sweep(ENGINES / "v-twin-90.toml", keys, orders=[1, 2], peaks=True, peak_samples=90)
     lean = hb.sweep(ENGINES / "v-twin-90.toml", keys, orders=[1, 2], peaks=True, peak_samples=90, phasors=False)
@@ -762,20 +765,33 @@ def test_documented_sweeps_fit_their_engines():
             assert low <= quantity_value(_written(raw, key))[0] <= high, (argv, key)
 
 
-def test_key_dimensions_follow_the_scene_reader():
-    # Every key the reader reads as a quantity by a literal name has that dimension in KEY_DIMENSIONS.
+def test_key_dimensions_are_the_scene_readers():
+    # The sweep keeps no unit table: it asks the reader. Every quantity the bundled scenes write is recorded with
+    # the dimension the reader's source converts it in, and a key not written yet is read where a sweep writes it.
     import re
 
-    from harmbal.studies.sweep import KEY_DIMENSIONS
+    from harmbal.scene.reader import quantity_dimensions
+    from harmbal.studies.keys import key_dimension
 
     source = "\n".join(p.read_text(encoding="utf-8") for p in (ENGINES.parent.parent / "harmbal" / "scene").glob(
         "read*.py"))
     call = r'(?:quantity(?:_list)?\(\s*[^,()]+,\s*|\bq\()"(\w+)",\s*(?:[^,()]*\([^()]*\)|[^,()]+),\s*"(\w+)"'
     shorthand = r'\bq\("(\w+)",\s*"(\w+)"'
-    found = set(re.findall(call, source)) | set(re.findall(shorthand, source))
-    assert len(found) > 40
-    for name, dimension in found:
-        assert KEY_DIMENSIONS.get(name) == dimension, (name, dimension)
+    literal = dict(set(re.findall(call, source)) | set(re.findall(shorthand, source)))
+    assert len(literal) > 40
+    recorded: dict[str, set] = {}
+    for path in sorted(ENGINES.parent.glob("*/*.toml")):
+        for key, dimension in quantity_dimensions(tomllib.loads(path.read_text(encoding="utf-8"))).items():
+            recorded.setdefault(re.sub(r"\[\d+\]", "", key.rpartition(".")[2]), set()).add(dimension)
+    assert len(recorded.keys() & literal.keys()) > 40
+    for name in recorded.keys() & literal.keys():
+        assert recorded[name] == {literal[name]}, name
+    raw = tomllib.loads((ENGINES / "v-twin-90.toml").read_text(encoding="utf-8"))
+    assert key_dimension(raw, "cylinder[2].piston.mass", "410 g") == "mass"  # the cylinder has no [piston] yet
+    assert key_dimension(raw, "engine.reference_point[3]", 0.0) == "length"
+    assert key_dimension(raw, "cylinder[1].bank", "1 kg") == "angle"  # whatever the value
+    assert key_dimension(raw, "piston.colour", 1.0) is None
+    assert key_dimension(raw, "cylinder[9].piston.mass", 1.0) is None
 
 
 def test_sweep_figure_draws_keys_in_their_units_and_the_loads_after_the_design():

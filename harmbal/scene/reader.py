@@ -40,7 +40,8 @@ from .schema import (_MISSING, EFFECTS, MAX_SPEEDS, Cylinder, Gas, Model, Proble
 from .source_files import FileRefused, read_regular, trace_roots
 from .units import QuantityError, to_si
 
-__all__ = ["EFFECTS", "MAX_SPEEDS", "Cylinder", "Model", "Scene", "SceneError", "load_scene", "scene_from_text"]
+__all__ = ["EFFECTS", "MAX_SPEEDS", "Cylinder", "Model", "Scene", "SceneError", "load_scene", "quantity_dimensions",
+           "scene_from_text"]
 
 
 def load_scene(path_or_mapping: str | os.PathLike | Mapping[str, Any], *, files: Mapping[str, str] | None = None,
@@ -188,6 +189,39 @@ def _read(data: Mapping, text: str, source: str, files: Mapping[str, str] | None
     return scene
 
 
+def quantity_dimensions(data: Mapping[str, Any], *, files: Mapping[str, str] | None = None) -> dict[str, str]:
+    """The dimension of every key the scene reader reads as a quantity in ``data``.
+
+    The reader itself answers: ``data`` is read as :func:`load_scene` reads
+    it, recording the dimension each quantity is converted in, so that the
+    answer follows the reader wherever a key is read (shared tables and each
+    cylinder's own, arrays of tables, lists of quantities) and whatever its
+    value (problems are not raised: a key is recorded even if its value is
+    refused).
+
+    Parameters
+    ----------
+    data : mapping
+        A raw scene, as :func:`tomllib.loads` returns it.
+    files : mapping of str to str, optional
+        The text of trace files the scene names (as in :func:`load_scene`);
+        no file is ever opened (a name not given is a problem, not recorded).
+
+    Returns
+    -------
+    dict of str to str
+        Key path as the user writes it (``piston.mass``,
+        ``cylinder[2].piston.mass``, ``engine.reference_point[3]``) ->
+        dimension (a key of :data:`~harmbal.scene.units.SI_UNITS`). A key the
+        reader does not reach (an unknown key, a table it refuses) or reads
+        otherwise (an integer, a choice) is not there.
+    """
+    reader = _Reader("<dimensions>", {} if files is None else files)
+    reader.dimensions = {}
+    reader.scene(data, "")
+    return reader.dimensions
+
+
 _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
@@ -211,6 +245,8 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
         self.given = None if files is None else dict(files)
         self.files: dict[str, str] = {}
         self.gases: list[Gas] = []
+        # Key path -> dimension of every quantity read, when asked for (quantity_dimensions); None: not kept.
+        self.dimensions: dict[str, str] | None = None
 
     # -- primitives --------------------------------------------------------
 
@@ -243,6 +279,8 @@ class _Reader(EngineTables, CylinderTables, GasTables, BalancerTables, RequestTa
                  positive: bool = False, nonnegative: bool = False) -> float:
         value = table.get(key, default)
         where = _join(path, key)
+        if self.dimensions is not None:
+            self.dimensions[where] = dimension
         if value is _MISSING:
             self.fail(where, _MISSING, "missing required key")
             return math.nan

@@ -1,0 +1,180 @@
+"""The Dataset of a sweep: its evaluated arrays as variables along the
+variant axis (over ``speed`` too if the scene has several speeds, as lazy ω²
+products), each key a coordinate with its units, the designs' axes, and the
+nominal scene's load scales and negligible levels that every variant is
+classed by."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..labelled import CONVENTIONS, Speeds, dataset, variable
+from ..model.evaluate import evaluate
+from ..orders.spectrum import ROTATION, ZERO_RTOL, negligible_level
+from ..scene import Scene
+from .plan import Plan
+
+if TYPE_CHECKING:
+    from ..balance.variants import DesignBasis
+
+#: How a sweep's loads are classed (the ``classes`` attribute; docs/sweeps.md).
+CLASSES_NOTE = ("zero (round-off): at most zero_rtol x nominal_<force|moment>_scale; negligible: at most "
+                "<force|moment>_negligible_level; free: above it. Every variant is judged against the levels of the "
+                "nominal scene (the scene swept), so that variants compare on one footing: "
+                "harmbal.orders.spectrum.classify(amplitude, nominal_force_scale, force_negligible_level)")
+
+#: The loads a sweep reports: name, units, what they are.
+_LOADS = (("force", "N", "the free shaking force"), ("moment", "N m", "the free shaking moment"),
+          ("residual_force", "N", "the free force with the designed balancers"),
+          ("residual_moment", "N m", "the free moment with the designed balancers"))
+
+
+class _SpeedVariables:
+    """Variables of values at the sweep's one speed, or at unit speed times ω² over ``speed`` (lazy)."""
+
+    def __init__(self, speeds: Speeds):
+        self.speeds = speeds
+
+    def __call__(self, dims: tuple, values, attrs: dict):
+        speeds = self.speeds
+        if not speeds.several:
+            return variable(dims, values, attrs)
+        if isinstance(values, np.ndarray):
+            return speeds.variable(dims, values, attrs)
+        return variable(speeds.lead + dims, speeds.w2.reshape((-1,) + (1,) * values.ndim) * values[None], attrs)
+
+
+def sweep_dataset(scene: Scene, plan: Plan, arrays: dict, orders: np.ndarray, dim: str, attrs: dict):
+    """The Dataset of ``arrays`` (at the scene's one speed, or at unit speed if
+    it has several: then ω² products over ``speed``, lazy).
+
+    Parameters
+    ----------
+    scene : Scene
+        The swept (nominal) scene.
+    plan : Plan
+        The sweep's plan (keys, their kinds and units, designs).
+    arrays : dict
+        Every variant's arrays (:func:`harmbal.studies.evaluate.evaluate_all`,
+        numpy or dask).
+    orders : ndarray of int
+        The orders reported.
+    dim : str
+        Name of the variant axis (``variant``, ``sample``).
+    attrs : dict
+        The run's own attributes (title, mode, …), added last.
+    """
+    speeds = Speeds(scene.speeds)
+    var = _SpeedVariables(speeds)
+    data = _load_variables(arrays, var, dim, attrs)
+    data.update(_levels(scene, speeds))
+    coords = {dim: variable((dim,), np.arange(plan.variants.count), {"long_name": f"{dim} number"})}
+    if plan.designs:
+        _add_designs(data, coords, plan.designs[0], arrays, var, dim)
+    coords.update(_key_coords(plan, arrays, dim))
+    coords.update({
+        "order": variable(("order",), orders, {"long_name": "order of crank speed", "units": "1"}),
+        "axis": variable(("axis",), np.array(["x", "y", "z"]), {"long_name": "engine axis"}),
+        "rotation": variable(("rotation",), np.array(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
+    })
+    if speeds.several:
+        coords.update(speeds.coords())
+    attrs = {
+        "harmbal_conventions": CONVENTIONS, "engine": scene.name, "rotation": scene.rotation,
+        "speed_rad_s": list(scene.speeds), "max_order": scene.sampling.max_order,
+        "linear_keys": list(plan.linear), "geometry_keys": list(plan.geometry), "geometries": len(plan.bases),
+        "samples_per_rev": sorted({b.samples_per_rev for b in plan.bases}), "zero_rtol": ZERO_RTOL,
+        "negligible": float(scene.model.negligible), "cylinders": len(scene.cylinders), "classes": CLASSES_NOTE,
+        **attrs,
+    }
+    return dataset(data, coords, attrs)
+
+
+def _load_variables(arrays: dict, var: _SpeedVariables, dim: str, attrs: dict) -> dict:
+    """The phasors, their co/counter split, the order amplitudes and the peaks of every load evaluated."""
+    data = {}
+    for name, units, what in _LOADS:
+        if f"{name}_amplitude" not in arrays:
+            continue
+        if name in arrays:
+            data[name] = var((dim, "order", "axis"), arrays[name], {
+                "units": units, "long_name": f"order phasor of {what}",
+                "description": "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"})
+            data[f"{name}_rotating"] = var((dim, "order", "rotation"), arrays[f"{name}_rotating"], {
+                "units": units, "long_name": f"co- and counter-rotating phasors of the transverse part of {what}",
+                "description": "w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta)"})
+        data[f"{name}_amplitude"] = var((dim, "order"), arrays[f"{name}_amplitude"], {
+            "units": units, "long_name": f"peak over a revolution of the order's vector of {what}",
+            "description": "sqrt((sum_a |C_a|^2 + |sum_a C_a^2|) / 2)"})
+        if f"peak_{name}" in arrays:
+            data[f"peak_{name}"] = var((dim,), arrays[f"peak_{name}"], {
+                "units": units, "long_name": f"largest magnitude of the {name} vector over a revolution",
+                "description": f"maximum over {attrs['peak_samples']} angles of the orders 0..max_order "
+                               "rebuilt from the phasors"})
+    return data
+
+
+def _add_designs(data: dict, coords: dict, design: DesignBasis, arrays: dict, var: _SpeedVariables,
+                 dim: str) -> None:
+    """The designed unbalances and residuals of every variant, and the designs' axes (``design``: the first
+    geometry's, whose elements and orders every geometry shares)."""
+    unbalance = arrays["design_unbalance"]
+    data["design_unbalance"] = variable((dim, "element"), abs(unbalance), {
+        "units": "kg m", "long_name": "designed unbalance (mass x radius) of each element, as harmbal.design sizes it"})
+    data["design_unbalance_angle"] = variable((dim, "element"), _angle(unbalance), {
+        "units": "rad", "long_name": "direction of the designed unbalance at theta = 0"})
+    data["design_residual"] = var((dim, "design_order", "component"), arrays["design_residual"], {
+        "units_by_component": "component_units", "long_name": "residual phasor the design predicts",
+        "description": "harmbal.design's predicted; 0 where cancelled (round-off)"})
+    data["design_cancelled"] = variable((dim, "design_order", "component"), arrays["design_cancelled"], {
+        "long_name": "targeted component cancelled by the design"})
+    data["design_targeted"] = variable(("design_order", "component"), np.array(
+        [[(k, n) in design.solver.targets for n in design.components] for k in design.orders]), {
+        "long_name": "component the [design] table asks to cancel"})
+    coords.update({
+        "element": variable(("element",), np.array(design.elements), {"long_name": "designed balancer element"}),
+        "design_order": variable(("design_order",), np.array(design.orders), {"long_name": "order designed for"}),
+        "component": variable(("component",), np.array(design.components)),
+        "component_units": variable(("component",), np.array(["N" if c.startswith("force") else "N m"
+                                                              for c in design.components])),
+    })
+
+
+def _key_coords(plan: Plan, arrays: dict, dim: str) -> dict:
+    """Each key a coordinate along the variant axis: SI values, SI units and the units to show them in."""
+    coords = {}
+    for key in plan.keys:
+        key_attrs: dict[str, Any] = {"long_name": f"scene key {key}", "kind": "linear" if key in plan.linear else "geometry"}
+        si_units, display_units = plan.units[key]
+        if si_units is not None:
+            key_attrs.update(units=si_units, display_units=display_units)
+        coords[key] = variable((dim,), arrays[key], key_attrs)
+    return coords
+
+
+def _levels(scene: Scene, speeds: Speeds) -> dict:
+    """The nominal scene's load scales and negligible levels at the sweep's
+    speeds (inertial loads and their scales go with ω²)."""
+    def at_speeds(unit_value: float, attrs: dict):
+        if speeds.several:
+            return speeds.variable((), np.asarray(unit_value), attrs)
+        return variable((), np.asarray(float(speeds.w2) * unit_value), attrs)
+
+    unit = evaluate(scene)
+    data = {}
+    for name, units, scale in (("force", "N", unit.force_scale), ("moment", "N m", unit.moment_scale)):
+        data[f"nominal_{name}_scale"] = at_speeds(scale, {
+            "units": units, "long_name": f"sum of the single bodies' peak {name}s of the nominal scene (the scene "
+                                         "swept): the scale its zero class is judged by"})
+        level = float(negligible_level(scale, len(scene.cylinders), scene.model.negligible))
+        data[f"{name}_negligible_level"] = at_speeds(level, {
+            "units": units, "long_name": f"{name} amplitude at or below which a load is negligible: [model] "
+                                         "negligible x the nominal scale / cylinders"})
+    return data
+
+
+def _angle(values):
+    """np.angle for numpy and dask arrays alike (np.angle would compute a dask array)."""
+    return np.arctan2(values.imag, values.real)

@@ -1,0 +1,252 @@
+"""The plan of a sweep: which key is linear and which is geometry, each
+distinct geometry read and evaluated once, and the slot values of every
+variant made from them block by block.
+
+A *linear* key changes only masses, rod inertias or unbalance sizes (the
+slots of :mod:`harmbal.orders.linear`), in proportion to its value: its
+values enter every variant by one matrix product, without reading or
+evaluating anything again. Any other key is a *geometry* key: each distinct
+combination of the geometry keys' values is read (and validated) as a scene
+and evaluated once (:func:`harmbal.orders.linear.linear_phasors`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..model.budget import check_budget
+from ..orders.linear import LinearPhasors, geometry_key, linear_phasors, slot_values
+from ..scene import Scene
+from ..scene.schema import _MISSING
+from .keys import key_error, parse_path, toml_value
+from .quantities import key_units, si_values
+from .requests import KeyValues, SweepOptions
+from .variants import SceneVariants, Variants
+
+if TYPE_CHECKING:
+    from ..balance.variants import DesignBasis
+
+
+@dataclass
+class Plan:
+    """Everything a block of variants needs, small whatever the number of variants."""
+
+    keys: tuple[str, ...]
+    si: dict[str, np.ndarray]            # SI value of each of a key's values
+    units: dict[str, tuple[str | None, str | None]]  # SI units and the units to show the values in
+    linear: dict[str, dict[int, float]]  # linear key -> {slot: slot value per SI unit of the key}
+    geometry: tuple[str, ...]
+    variants: Variants
+    combos: np.ndarray                   # sorted flat numbers of the geometry combinations, one per basis
+    bases: list[LinearPhasors]           # one per distinct geometry
+    base_slots: np.ndarray               # (geometry, slot) the slot values each geometry was read with
+    sense: int
+    designs: list[DesignBasis] | None    # one per geometry, if the sweep designs the balancers
+
+    def block(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Geometry (variant,), slot values (variant, slot) and key values {key: (variant,)} of a block."""
+        index = self.variants.index(start, stop)
+        if self.geometry:
+            columns = [self.keys.index(k) for k in self.geometry]
+            group = np.searchsorted(self.combos, self.variants.combination(index, columns))
+        else:
+            group = np.zeros(len(index), dtype=int)
+        slots = self.base_slots[group]
+        coords = {k: self.si[k][index[:, i]] for i, k in enumerate(self.keys)}
+        for key, coefficients in self.linear.items():
+            for s, a in coefficients.items():
+                slots[:, s] = coords[key] if a == 1.0 else a * coords[key]
+        return group, slots, coords
+
+
+@dataclass(frozen=True)
+class _Geometries:
+    """The distinct geometries of a sweep, read and evaluated."""
+
+    combos: np.ndarray
+    bases: list[LinearPhasors]
+    slots: np.ndarray
+    designs: list | None
+
+
+def make_plan(scene: Scene, keys: KeyValues, options: SweepOptions | None = None,
+              budget: dict | None = None) -> Plan:
+    """Sort the keys, read each distinct geometry once and keep what every
+    block of variants needs.
+
+    Parameters
+    ----------
+    scene : Scene
+        The swept scene, with its source text.
+    keys : KeyValues
+        The keys' values and the variants they make.
+    options : SweepOptions, optional
+        Of which ``backend``, ``design`` (also each geometry's design as maps
+        of its slot values) and ``progress`` are used here (default: the
+        defaults of :func:`harmbal.sweep`).
+    budget : dict, optional
+        The sweep's estimate (:func:`harmbal.model.budget.check_budget`),
+        checked again once the number of distinct geometries is known.
+
+    Raises
+    ------
+    SceneError
+        A scene the sweep cannot vary, a key or value the reader refuses.
+    """
+    options = SweepOptions() if options is None else options
+    _check_scene(scene, options.design)
+    reader = SceneVariants(scene)
+    si, units = {}, {}
+    for key, vals in keys.values.items():
+        parse_path(scene.source, key)
+        dimension = reader.dimension(key, vals[0])
+        si[key], typed_here = si_values(scene.source, key, vals, dimension)
+        units[key] = key_units(dimension, (keys.typed or {}).get(key, typed_here))
+    # A geometry key that also moves a linear key's slot (a rod split and a rod mass) makes both geometry:
+    # sort the keys again with those as geometry, until no linear key is moved by a geometry.
+    forced: frozenset[str] = frozenset()
+    while True:
+        linear = _linear_keys(reader, keys.values, si, forced, options.design)
+        geometry = tuple(k for k in keys.values if k not in linear)
+        read = _read_geometries(reader, keys, linear, geometry, options, budget)
+        if isinstance(read, _Geometries):
+            break
+        forced |= read
+    return Plan(keys=tuple(keys.values), si=si, units=units, linear=linear, geometry=geometry,
+                variants=keys.variants, combos=read.combos, bases=read.bases, base_slots=read.slots,
+                sense=scene.sense, designs=read.designs)
+
+
+def _check_scene(scene: Scene, design: bool) -> None:
+    reason = unsupported(scene)
+    if reason:
+        raise key_error(scene.source, "(scene)", scene.name, reason)
+    if design and scene.design is None:
+        raise key_error(scene.source, "design", _MISSING, "designing per variant needs the scene's [design] table "
+                        "(docs/design.md)")
+
+
+def unsupported(scene: Scene) -> str | None:
+    """Why the sweep cannot vary ``scene``, or None."""
+    effects = scene.model.effects
+    if "gas" in effects or any(c.gas is not None for c in scene.cylinders):
+        return "gas loads are not linear in the masses: sweep a scene without [gas]"
+    if "speed_fluctuation" in effects:
+        return "the speed fluctuation is not swept yet: leave out the effect"
+    if scene.levers and "balancers" in effects:
+        return "lever balancers are not swept yet: leave them out or drop the balancers effect"
+    return None
+
+
+def _linear_keys(reader: SceneVariants, values: Mapping, si: dict, forced: frozenset,
+                 design: bool) -> dict[str, dict[int, float]]:
+    """{linear key: {slot: slot value per SI unit of the key}} of the keys not ``forced`` to be geometry."""
+    scene = reader.scene
+    base_key = geometry_key(scene)
+    base_slots = slot_values(scene)[1]
+    linear: dict[str, dict[int, float]] = {}
+    for key in (k for k in values if k not in forced):
+        coefficients = _linear_coefficients(reader, key, values[key], si[key], base_key, base_slots, design)
+        if coefficients is not None:
+            linear[key] = coefficients
+    # A slot moved by two keys (mass and radius of one unbalance) is their product, not linear.
+    owners: dict[int, list[str]] = {}
+    for key, coefficients in linear.items():
+        for s in coefficients:
+            owners.setdefault(s, []).append(key)
+    for shared in (ks for ks in owners.values() if len(ks) > 1):
+        for key in shared:
+            linear.pop(key, None)
+    return linear
+
+
+def _linear_coefficients(reader: SceneVariants, key: str, values: list, si: np.ndarray, base_key: Scene,
+                         base_slots: np.ndarray, design: bool) -> dict[int, float] | None:
+    """{slot: slot value per SI unit of the key} if ``key`` moves only slots, in
+    proportion to its value, else None (a geometry key). The key is read at its
+    smallest, median and largest value, which validates those values; the
+    slots' rules (positive) then hold for every value between."""
+    order = np.argsort(si, kind="stable")
+    probes = sorted({int(order[0]), int(order[len(order) // 2]), int(order[-1])})
+    scenes = [reader.read({key: toml_value(values[p])}) for p in probes]
+    slots = np.array([slot_values(s)[1] for s in scenes])
+    if any(geometry_key(s) != base_key for s in scenes):
+        if (slots == base_slots).all() and all(_outputs_key(s, design) == _outputs_key(base_key, design)
+                                               for s in scenes):
+            hint = "; design=True (--design) designs the balancers per variant" if key.startswith("design.") else ""
+            raise key_error(reader.scene.source, key, values[probes[-1]], "changes nothing a sweep reports (the "
+                            f"free forces and moments{', the design' if design else ''}){hint}")
+        return None
+    moved = np.flatnonzero((slots != base_slots).any(axis=0))
+    x = si[probes]
+    if moved.size and np.any(x == 0):
+        return None
+    coefficients = {}
+    for s in moved:
+        a = slots[:, s] / x
+        if not np.allclose(a, a[0], rtol=1e-14, atol=0):
+            return None
+        coefficients[int(s)] = float(a[0])
+    return coefficients
+
+
+def _outputs_key(scene: Scene, design: bool) -> Scene:
+    """The scene without what the sweep's results do not depend on: requests ([design] unless the sweep
+    designs, [verify], [loads]), outlines, the flywheel (the speed fluctuation is refused), names and the
+    firing order."""
+    return replace(geometry_key(scene), design=scene.design if design else None, verify=None, loads=None,
+                   outlines=(), flywheel=None, name="", description="", firing_order=None)
+
+
+def _read_geometries(reader: SceneVariants, keys: KeyValues, linear: dict, geometry: tuple[str, ...],
+                     options: SweepOptions, budget: dict | None) -> _Geometries | set[str]:
+    """Each distinct combination of the geometry keys' values read and evaluated once; or, as soon as a geometry
+    moves the slots of linear keys, those keys (which must be geometry keys too)."""
+    scene, variants = reader.scene, keys.variants
+    names, base_slots = slot_values(scene)
+    columns = [tuple(keys.values).index(k) for k in geometry]
+    combos = variants.combinations(columns)
+    if budget is not None:  # now that the distinct geometries are known, before any of them is read
+        check_budget(scene, "sweep", sweep={**budget, "geometries": len(combos), "geometry_key": ", ".join(geometry)})
+    bases: list[LinearPhasors] = []
+    slot_rows: list[np.ndarray] = []
+    designs: list[DesignBasis] = []
+    for combo in combos:
+        numbers = variants.values_of(combo, columns)
+        variant = reader.read({k: toml_value(keys.values[k][i]) for k, i in zip(geometry, numbers)})
+        reason = unsupported(variant)
+        if reason:
+            raise key_error(scene.source, ", ".join(geometry), None, reason)
+        names_here, slots_here = slot_values(variant)
+        if names_here != names:
+            raise key_error(scene.source, ", ".join(geometry), None, "changes the scene's cylinders or unbalances")
+        clash = {k for k, coefficients in linear.items() if any(slots_here[s] != base_slots[s] for s in coefficients)}
+        if clash:
+            return clash
+        bases.append(linear_phasors(variant, backend=options.backend))
+        if options.design:
+            designs.append(_design_basis(variant, bases[-1], designs[0] if designs else None, geometry))
+        if options.progress is not None:
+            options.progress(len(bases), len(combos))
+        slot_rows.append(bases[-1].values)
+    return _Geometries(combos, bases, np.array(slot_rows), designs if options.design else None)
+
+
+def _design_basis(scene: Scene, basis: LinearPhasors, first: DesignBasis | None, keys: tuple[str, ...]) -> DesignBasis:
+    """The design of one geometry as maps of its slot values; every geometry
+    must design the same elements for the same orders (one ``element`` and
+    ``design_order`` axis for all variants)."""
+    from ..balance.variants import design_basis
+
+    try:
+        made = design_basis(scene, basis)
+    except ValueError as exc:  # DesignError: a request the maps cannot follow (e.g. the peak objective)
+        raise key_error(scene.source, "design", None, str(exc)) from None
+    if first is not None and (made.elements, made.orders) != (first.elements, first.orders):
+        raise key_error(scene.source, ", ".join(keys), None, "changes the designed elements or orders: sweep them "
+                        "as separate scenes")
+    return made

@@ -2,6 +2,15 @@
 
 Exit codes: 0 success, 2 bad input (scene, archive or arguments), 1 any other
 failure. Nothing is written unless the whole job succeeded.
+
+Only harmbal's own refusals are bad input: :class:`_BadInput` raised here,
+argparse's errors, and the exception types by which the library refuses its
+input (:class:`~harmbal.scene.SceneError`, :class:`~harmbal.DesignError`,
+:class:`~harmbal.VerifyError`, :class:`~harmbal.ArchiveError`,
+:class:`~harmbal.scene.units.QuantityError`), each caught where it is raised
+or in :func:`main`. Any other exception, a plain ``ValueError`` included, is a
+bug: it propagates with its traceback (exit 1) instead of reading as the
+user's fault.
 """
 
 from __future__ import annotations
@@ -20,7 +29,7 @@ EXIT_BAD_INPUT = 2
 
 
 class _BadInput(Exception):
-    pass
+    """Input the command refuses: printed as ``harmbal: error:`` lines, exit 2."""
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -205,7 +214,7 @@ def _budget_value(parser: str):
 
         try:
             getattr(budget, parser)(text)
-        except ValueError as exc:
+        except ValueError as exc:  # the parser's documented refusal of the text (it does nothing else)
             raise argparse.ArgumentTypeError(str(exc)) from None
         return text
 
@@ -341,6 +350,7 @@ def _order_table_without_datasets(scene, backend: str) -> str:
 
 def _sweep(args) -> None:
     from .scene import SceneError
+    from .scene.units import QuantityError
     from .studies.sweep import monte_carlo, sweep
 
     if args.output is not None:
@@ -368,6 +378,10 @@ def _sweep(args) -> None:
         repeated = sorted({k for k in given if given.count(k) > 1})
         if repeated:
             raise _BadInput(f"{what}: {', '.join(repeated)} given more than once")
+    counts = {key: len(values) for key, values in args.sets}
+    if args.zip and len(set(counts.values())) > 1:
+        raise _BadInput("--zip needs equally many values of every --set key: "
+                        + ", ".join(f"{key} has {count}" for key, count in counts.items()))
     scene = _load(args.scene, args.negligible)
     if max(args.orders) > scene.sampling.max_order:
         raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
@@ -387,9 +401,7 @@ def _sweep(args) -> None:
             ds = sweep(scene, sets, mode="zip" if args.zip else "grid", orders=args.orders,
                        peaks=args.peaks, progress=bar, phasors=args.output is not None, chunks=args.chunks,
                        design=args.design)
-    except SceneError as exc:
-        raise _BadInput(str(exc)) from None
-    except ValueError as exc:
+    except (SceneError, QuantityError) as exc:
         raise _BadInput(str(exc)) from None
     from .reporting.sweeps import sweep_table, table_inputs
 
@@ -452,10 +464,11 @@ def _budget(scene, command: str, **options) -> None:
     """Refuse (exit 2) a command whose estimated memory or time exceeds the
     budget (:func:`harmbal.model.budget.check_budget`), before any work."""
     from .model.budget import check_budget
+    from .scene import SceneError
 
     try:
         check_budget(scene, command, **options)
-    except ValueError as exc:  # a SceneError, or a budget in the environment that is not a size
+    except SceneError as exc:  # over the budget (a budget in the environment was checked by _limits)
         raise _BadInput(str(exc)) from None
 
 
@@ -551,10 +564,13 @@ def _sweep_values(key: str, text: str) -> list | _Range:
         raise argparse.ArgumentTypeError(f"{key}: write START:STOP:N or V1,V2,...: {text!r}")
     try:
         count = int(parts[2])
+    except ValueError as exc:  # int()'s own refusal of the text: N is not an integer
+        raise argparse.ArgumentTypeError(f"{key}: {text!r}: {exc}") from None
+    try:
         (start, units), (stop, stop_units) = (quantity_value(v.strip()) for v in parts[:2])
         typed = typed_units(parts[0].strip())
         factor = display_factor(typed)
-    except (ValueError, QuantityError) as exc:
+    except QuantityError as exc:
         raise argparse.ArgumentTypeError(f"{key}: {text!r}: {exc}") from None
     if count < 1 or (count == 1 and start != stop) or units != stop_units:
         raise argparse.ArgumentTypeError(f"{key}: {text!r}: N ≥ 1 values (1 only if START = STOP), START and STOP "
@@ -585,18 +601,19 @@ def _tolerance(text: str):
     usage = f"{key or 'KEY'}: write normal:SIGMA, uniform:LOW:HIGH or classes:V1@P1,V2@P2,...: {text!r}"
     if not sep or not key:
         raise argparse.ArgumentTypeError(usage)
-    try:
-        if kind == "normal" and rest and ":" not in rest:
-            return key, Normal(_number_or_text(rest))
-        if kind == "uniform" and rest.count(":") == 1:
-            low, high = rest.split(":")
-            return key, Uniform(_number_or_text(low), _number_or_text(high))
-        if kind == "classes" and rest:
-            pairs = [item.rpartition("@") for item in rest.split(",")]
-            if all(sep and value for value, sep, _ in pairs):
-                return key, WeightClasses([_number_or_text(v) for v, _, _ in pairs], [float(p) for _, _, p in pairs])
-    except ValueError:
-        pass
+    if kind == "normal" and rest and ":" not in rest:
+        return key, Normal(_number_or_text(rest))
+    if kind == "uniform" and rest.count(":") == 1:
+        low, high = rest.split(":")
+        return key, Uniform(_number_or_text(low), _number_or_text(high))
+    if kind == "classes" and rest:
+        pairs = [item.rpartition("@") for item in rest.split(",")]
+        if all(sep and value for value, sep, _ in pairs):
+            try:
+                probabilities = [float(p) for _, _, p in pairs]
+            except ValueError:  # float()'s own refusal: a probability that is not a number
+                raise argparse.ArgumentTypeError(usage) from None
+            return key, WeightClasses([_number_or_text(v) for v, _, _ in pairs], probabilities)
     raise argparse.ArgumentTypeError(usage)
 
 
@@ -938,10 +955,38 @@ def _limits(args):
         try:
             if os.environ.get(name, "").strip():
                 parse(os.environ[name])
-        except ValueError as exc:
+        except ValueError as exc:  # the parser's documented refusal of the text (it does nothing else)
             raise _BadInput(f"{name}: {exc}") from None
     with budget.limits(memory=memory, time=time):
         yield
+
+
+def _refusals() -> tuple[type[Exception], ...]:
+    """The exception types by which the library refuses its input from deep in
+    a computation: a :class:`~harmbal.scene.SceneError` (a model's refusal, a
+    budget) and a :class:`~harmbal.DesignError` (e.g. a sweep variant's design
+    refused as ill-conditioned). Imported only once an exception reaches
+    :func:`main` (an ``except`` clause is evaluated only then), so that the
+    command starts light; a plain ``ValueError`` is not among them."""
+    from .balance.solvers import DesignError
+    from .scene import SceneError
+
+    return SceneError, DesignError
+
+
+def _print_refusal(exc: Exception, args) -> None:
+    """One ``harmbal: error:`` line per problem of a refusal."""
+    from .scene import SceneError
+
+    if not isinstance(exc, SceneError):
+        for line in str(exc).splitlines():
+            print(f"harmbal: error: {line}", file=sys.stderr)
+        return
+    # A model names the table it refuses ("[flywheel]"): name the scene file instead.
+    scene = getattr(args, "scene", None) or getattr(args, "input", None)
+    for p in exc.problems:
+        source = str(scene) if scene is not None and p.source.startswith("[") else p.source
+        print(f"harmbal: error: {dataclasses.replace(p, source=source)}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -960,21 +1005,8 @@ def main(argv: list[str] | None = None) -> int:
     except _Disagreement as exc:
         print(f"harmbal: error: {exc}", file=sys.stderr)
         return 1
-    except ValueError as exc:  # a SceneError from deep in the computation (a solver's refusal) is bad input too
-        from .balance.solvers import DesignError
-        from .scene import SceneError
-
-        if isinstance(exc, DesignError):  # e.g. a sweep variant's design refused as ill-conditioned
-            for line in str(exc).splitlines():
-                print(f"harmbal: error: {line}", file=sys.stderr)
-            return EXIT_BAD_INPUT
-        if not isinstance(exc, SceneError):
-            raise
-        # A model names the table it refuses ("[flywheel]"): name the scene file instead.
-        scene = getattr(args, "scene", None) or getattr(args, "input", None)
-        for p in exc.problems:
-            source = str(scene) if scene is not None and p.source.startswith("[") else p.source
-            print(f"harmbal: error: {dataclasses.replace(p, source=source)}", file=sys.stderr)
+    except _refusals() as exc:  # harmbal's refusal from deep in the computation (a solver's, a variant's design)
+        _print_refusal(exc, args)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # output piped into head & co.: stop quietly
         sys.stderr.close()

@@ -253,3 +253,102 @@ def test_run_prints_only_what_the_flywheel_table_asks(tmp_path, capsys):
     for speed in torque["speed"].values:
         power, = rows[round(speed * 30 / np.pi, 6)]
         assert power * 1e3 == pytest.approx(float(torque["mean_torque"]) * speed, rel=1e-4)
+
+
+ENGINES = ROOT / "datasets" / "engines"
+#: One invocation of each command that reads a scene; each checks its budget before any work.
+SCENE_COMMANDS = {
+    "run": ["run", str(ENGINES / "single.toml")],
+    "stars": ["stars", str(ENGINES / "single.toml")],
+    "design": ["design", str(ENGINES / "inline-3.toml"), "-o", "{tmp}/designed.toml"],
+    "verify": ["verify", str(ENGINES / "inline-3-balanced.toml")],
+    "loads": ["loads", str(ENGINES / "single.toml")],
+    "sweep": ["sweep", str(ENGINES / "single.toml"), "--set", "piston.mass=0.3:0.5:3"],
+}
+
+
+def _argv(command: str, tmp_path) -> list[str]:
+    return [a.format(tmp=tmp_path) for a in SCENE_COMMANDS[command]]
+
+
+@pytest.fixture
+def imported():
+    """Every harmbal module imported before a test monkeypatches one of its
+    functions: a module first imported during the test would bind the broken
+    function at its top (``from ..model.budget import check_budget``) and keep
+    it for every later test."""
+    import importlib
+    import pkgutil
+
+    for module in pkgutil.walk_packages(hb.__path__, "harmbal."):
+        if module.name != "harmbal.__main__":  # it runs the command
+            importlib.import_module(module.name)
+
+
+def _raises(error: Exception):
+    def broken(*args, **kwargs):
+        raise error
+
+    return broken
+
+
+@pytest.mark.parametrize("error", [ValueError("a bug"), TypeError("a bug"), KeyError("a bug")], ids=type)
+@pytest.mark.parametrize("command", SCENE_COMMANDS)
+def test_a_bug_propagates_with_its_traceback_instead_of_reading_as_bad_input(imported, monkeypatch, tmp_path, command,
+                                                                               error):
+    # A plain ValueError is not one of harmbal's refusals: mapping it to exit 2 ("bad input") would blame the user
+    # for a programming error and hide its traceback.
+    monkeypatch.setattr("harmbal.model.budget.check_budget", _raises(error))
+    with pytest.raises(type(error), match="a bug"):
+        main(_argv(command, tmp_path))
+
+
+def test_a_bug_in_the_sweep_propagates(imported, monkeypatch):
+    monkeypatch.setattr("harmbal.studies.sweep.sweep", _raises(ValueError("a bug")))
+    with pytest.raises(ValueError, match="a bug"):
+        main(SCENE_COMMANDS["sweep"])
+
+
+def test_a_bug_in_the_evaluation_propagates_from_a_subprocess_with_exit_1(tmp_path):
+    # As a user sees it: a traceback and Python's exit status 1, never "harmbal: error:" and exit 2.
+    code = ("import sys, harmbal.model.evaluate as e\n"
+            "def broken(*a, **k): raise ValueError('a bug')\n"
+            "e.evaluate = broken\n"
+            "from harmbal.cli import main\n"
+            f"sys.exit(main({SCENE_COMMANDS['run']!r}))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 1
+    assert "Traceback" in done.stderr and "ValueError: a bug" in done.stderr
+    assert "harmbal: error:" not in done.stderr
+
+
+@pytest.mark.parametrize("command", SCENE_COMMANDS)
+def test_a_refusal_from_deep_in_the_computation_still_exits_2(imported, monkeypatch, tmp_path, capsys, command):
+    from harmbal.scene.schema import Problem, SceneError
+
+    refusal = SceneError([Problem("[engine]", "engine.speed", 1e9, "over the budget")])
+    monkeypatch.setattr("harmbal.model.budget.check_budget", _raises(refusal))
+    assert main(_argv(command, tmp_path)) == 2
+    err = capsys.readouterr().err
+    assert "harmbal: error:" in err and "engine.speed" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("refusal", [hb.SceneError([]), hb.DesignError("variant 3: ill-conditioned")], ids=type)
+def test_harmbal_refusals_reaching_main_exit_2(imported, monkeypatch, capsys, refusal):
+    from harmbal.scene.schema import Problem
+
+    if isinstance(refusal, hb.SceneError):
+        refusal = hb.SceneError([Problem("[flywheel]", "flywheel.inertia", 0.0, "stalls")])
+    monkeypatch.setattr("harmbal.cli._run", _raises(refusal))  # the command's handler, looked up by main
+    assert main(SCENE_COMMANDS["run"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("harmbal: error:") and "Traceback" not in err
+    if isinstance(refusal, hb.SceneError):  # a model's table is replaced by the scene file's name
+        assert f"{SCENE_COMMANDS['run'][1]}: flywheel.inertia" in err
+
+
+def test_zip_of_unequal_lengths_is_refused_before_any_work(capsys):
+    argv = [*SCENE_COMMANDS["sweep"], "--set", "rod.mass=0.3,0.4", "--zip"]
+    assert main(argv) == 2
+    assert "--zip needs equally many values of every --set key: piston.mass has 3, rod.mass has 2" in \
+        capsys.readouterr().err

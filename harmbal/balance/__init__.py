@@ -1,2 +1,2 @@
-"""Stage 5, balancing: order-by-order design of balancer elements, the lever
+"""The balancing stage: order-by-order design of balancer elements, the lever
 balancer's weight, and verification by the exact model."""

@@ -5,9 +5,10 @@ its angle at θ = 0) turning at n × crank speed; its loads on the block are
 pure order-|n| phasors, linear in (Re P, Im P). So, per order, cancelling the
 engine's free force and moment phasors is a small real linear problem
 A·z = −b: the columns of A are the unit responses of the unknowns (computed
-by the same code that simulates the elements, :mod:`harmbal.balancers`), b
+by the same code that simulates the elements, :mod:`harmbal.model.balancers`), b
 the engine's phasors from :func:`harmbal.orders.phasors.order_phasors`. It is
-solved by least squares in order of priority, the force first, then the
+solved by least squares in order of priority
+(:mod:`harmbal.balance.least_squares`), the force first, then the
 moment, then the roll moment: each exact where it can be, least squares where
 it cannot, without giving up what the one before achieved; among the designs
 that remain, the smallest unbalances. What is left is reported component by
@@ -36,18 +37,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.elements import Shaft, ShaftUnbalance
-from ..model.balancers import shaft_loads, shaft_phasors
+from ..scene.elements import Shaft
+from ..model.balancers import shaft_loads
 from ..orders.phasors import order_phasors
-from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, Placement, signed_ratio)
-from ..orders.spectrum import ZERO, ZERO_RTOL, classify, rotating_split, zero_below_round_off
+from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, signed_ratio)
+from ..orders.spectrum import ZERO, ZERO_RTOL, classify, zero_below_round_off
 from ..scene import Scene, SceneError, scene_from_text
 from .counterweights import SizedBlank, size_blank
 from .solvers import LP_TOLERANCES, DesignError
 from ..scene.writer import (angle_text, blank_table, length_text, quantity_text, signed_angle_text, toml_tables,
                             with_engine, without_tables)
 from ..model.evaluate import moment_about, evaluate
-from .sanity import LEVERAGE_MIN, conditioning_error, engine_length, gross_force, size_error
+from .least_squares import (RANK_RTOL, component_phasors, design_targets, element_phasors, element_shafts,
+                            prioritised_least_squares, response_matrix, target_rows)
+from .sanity import check_conditioning, size_error
 from .verify import (CHECKED_ORDER, checked_orders, describe_component, engine_scales, made_worse_check,
                      residual_spectra, spectrum_components, verify_samples, worsened_messages)
 
@@ -105,45 +108,12 @@ class Design:
         return design_html(self.dataset, self.scene.name, self.messages, self.worsened)
 
 
-def _element_phasors(placements: tuple[Placement, ...], value: complex, kmax: int, sense: int,
-                     ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-axis order phasors (axis, order) of force and moment about ``ref``
-    at unit speed when the unknown is ``value``."""
-    shafts = _shafts("", placements, value)
-    force, moment = shaft_phasors(shafts, kmax, sense)
-    return force, moment_about(ref, force, moment)
-
-
 def _element_loads(placements, value: complex, theta: np.ndarray, sense: int, ref: np.ndarray):
-    force, moment = shaft_loads(_shafts("", placements, value), theta, sense)
+    force, moment = shaft_loads(element_shafts("", placements, value), theta, sense)
     return force, moment_about(ref, force, moment)
 
 
-def _shafts(label: str, placements: tuple[Placement, ...], value: complex) -> tuple[Shaft, ...]:
-    return tuple(Shaft(label, p.ratio, p.y, p.z, (ShaftUnbalance(abs(p.coefficient * value),
-                                                                  float(np.angle(p.coefficient * value)), p.x),))
-                 for p in placements)
-
-
-def _components(force: np.ndarray, moment: np.ndarray, sense: int) -> dict[str, np.ndarray]:
-    """The verified components per order from per-axis phasors (..., axis, order)."""
-    f_co, f_counter = rotating_split(force[..., 2, :], -sense * force[..., 1, :])
-    m_co, m_counter = rotating_split(moment[..., 2, :], -sense * moment[..., 1, :])
-    return {"force_co": f_co, "force_counter": f_counter, "moment_co": m_co, "moment_counter": m_counter,
-            "roll": moment[..., 0, :]}
-
-
-def _targets(request: DesignRequest) -> list[tuple[int, str]]:
-    return [(k, name) for k in request.orders for name, group in COMPONENTS if group in request.cancel]
-
-
-def _rows(components: dict[str, np.ndarray], targets: list[tuple[int, str]], weights: dict[str, float]) -> np.ndarray:
-    """Real rows (re, im per target), weighted."""
-    values = np.array([components[name][..., k] * weights[name] for k, name in targets])
-    return np.concatenate([values.real, values.imag])
-
-
-def _factor_scenes(scene: Scene) -> tuple[Scene, Scene]:
+def factor_scenes(scene: Scene) -> tuple[Scene, Scene]:
     """The two scenes whose phasors the balance-factor rule sizes counterweights
     by: the rotating masses with the counterweights already on the crank, and
     the reciprocating masses."""
@@ -152,12 +122,12 @@ def _factor_scenes(scene: Scene) -> tuple[Scene, Scene]:
             scene.with_effects({"reciprocating"}))
 
 
-def _factor_system(candidate: Candidate, kmax: int, sense: int, ref: np.ndarray,
-                   weights: dict[str, float]) -> tuple[np.ndarray, list[tuple[int, str]]]:
+def factor_system(candidate: Candidate, kmax: int, sense: int, ref: np.ndarray,
+                  weights: dict[str, float]) -> tuple[np.ndarray, list[tuple[int, str]]]:
     """The balance-factor rule's matrix and its targets: the first-order
     co-rotating force, and moment if there is more than one plane."""
     rows = [(1, "force_co")] + ([(1, "moment_co")] if len(candidate.planes) > 1 else [])
-    return _matrix(candidate.unknowns(), rows, kmax, sense, ref, weights), rows
+    return response_matrix(candidate.unknowns(), rows, kmax, sense, ref, weights), rows
 
 
 def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: np.ndarray,
@@ -167,18 +137,11 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
     co-rotating force and moment (static balance alone with one plane) of the
     rotating masses (throw and crankshaft unbalances, rod big ends, the
     crankshaft's own CG) plus 2f × those of the reciprocating masses."""
-    rot, rec = (order_phasors(evaluate(s)) for s in _factor_scenes(scene))
+    rot, rec = (order_phasors(evaluate(s)) for s in factor_scenes(scene))
     f = candidate.balance_factor
-    target = _components(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
-    a, rows = _factor_system(candidate, kmax, scene.sense, ref, weights)
-    return np.linalg.lstsq(a, -_rows(target, rows, weights), rcond=None)[0]
-
-
-def _matrix(unknowns, targets, kmax, sense, ref, weights) -> np.ndarray:
-    """Columns: the weighted rows of each real unknown (Re P, Im P)."""
-    columns = [_rows(_components(*_element_phasors(placements, value, kmax, sense, ref), sense), targets, weights)
-               for placements in unknowns for value in (1.0, 1j)]
-    return np.array(columns).T if columns else np.zeros((2 * len(targets), 0))
+    target = component_phasors(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
+    a, rows = factor_system(candidate, kmax, scene.sense, ref, weights)
+    return np.linalg.lstsq(a, -target_rows(target, rows, weights), rcond=None)[0]
 
 
 def _with_elements(force: np.ndarray, moment: np.ndarray, candidates, values, kmax: int, sense: int,
@@ -188,7 +151,7 @@ def _with_elements(force: np.ndarray, moment: np.ndarray, candidates, values, km
     force, moment = force.copy(), moment.copy()
     for c in candidates:
         for placements, v in zip(c.unknowns(), values[c.label]):
-            f, m = _element_phasors(placements, v, kmax, sense, ref)
+            f, m = element_phasors(placements, v, kmax, sense, ref)
             force += f
             moment += m
     return force, moment
@@ -202,7 +165,7 @@ def _remedy(order: int, name: str) -> str:
     return f"a −{order}× shaft"
 
 
-def _check_request(scene: Scene, request: DesignRequest | None) -> None:
+def check_request(scene: Scene, request: DesignRequest | None) -> None:
     """Refuse a request that cannot be set up: none, a scene that does not
     simulate balancers, orders or shaft ratios above the scene's max_order."""
     if request is None:
@@ -272,7 +235,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         from .lever import design_lever
 
         return design_lever(scene, request, name=name, description=description)
-    _check_request(scene, request)
+    check_request(scene, request)
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # non-finite results are refused
             plan = _plan(scene, request)
@@ -286,7 +249,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     values, ok, predicted = solution.values, solution.ok, solution.predicted
     w2 = scene.speeds[0] ** 2
     before = {n: zero_below_round_off(v, plan.zero_scales[n])
-              for n, v in _components(plan.engine.force, plan.engine.moment, scene.sense).items()}
+              for n, v in component_phasors(plan.engine.force, plan.engine.moment, scene.sense).items()}
 
     blanks: dict[str, SizedBlank] = {}  # filled as the elements are written
     designed, text = _designed_scene(scene, request, values, predicted, {"name": name, "description": description},
@@ -374,8 +337,7 @@ def _plan(scene: Scene, request: DesignRequest) -> _Plan:
     loads that are not finite are refused (they would give a design of NaN)."""
     unit = evaluate(scene)
     engine = order_phasors(unit)
-    force_scale = float(engine.peak_force.sum() + engine.crankshaft_peak_force)
-    moment_scale = float(engine.peak_moment.sum() + engine.crankshaft_peak_moment)
+    force_scale, moment_scale = unit.force_scale, unit.moment_scale
     zero = engine_scales(scene, unit)
     if not all(math.isfinite(v) for v in (force_scale, moment_scale, *zero)) or not (
             np.isfinite(engine.force).all() and np.isfinite(engine.moment).all()):
@@ -385,7 +347,7 @@ def _plan(scene: Scene, request: DesignRequest) -> _Plan:
     scales = {name: force_scale if group == "force" else moment_scale for name, group in COMPONENTS}
     return _Plan(engine=engine, weights={name: 1.0 / s if s > 0 else 1.0 for name, s in scales.items()}, zero=zero,
                  zero_scales={name: zero[0] if group == "force" else zero[1] for name, group in COMPONENTS},
-                 targets=_targets(request), negligible=ZERO_RTOL * force_scale,
+                 targets=design_targets(request), negligible=ZERO_RTOL * force_scale,
                  frame=(scene.sampling.max_order, scene.sense, np.asarray(scene.reference_point, dtype=float)))
 
 
@@ -419,11 +381,11 @@ def _solve(scene: Scene, request: DesignRequest, plan: _Plan) -> _Solution:
         z = _factor_counterweights(scene, c, kmax, ref, weights)
         values[c.label] = list(z[0::2] + 1j * z[1::2])
     base_force, base_moment = _with_elements(plan.engine.force, plan.engine.moment, fixed, values, *plan.frame)
-    b = _rows(_components(base_force, base_moment, sense), targets, weights)
+    b = target_rows(component_phasors(base_force, base_moment, sense), targets, weights)
     unknowns = [u for c in free for u in c.unknowns()]
-    _check_conditioning(scene, free, targets)
-    a = _matrix(unknowns, targets, kmax, sense, ref, weights)
-    z = _prioritised_least_squares(a, b, targets)
+    check_conditioning(scene, free, targets)
+    a = response_matrix(unknowns, targets, kmax, sense, ref, weights)
+    z = prioritised_least_squares(a, b, targets)
     if request.objective == "peak" and unknowns:
         ok = _cancelled(_residual_components(plan, fixed + free, {**values, **_unpack(free, z)}), targets, plan)
         z = _peak_design(scene, request, free, unknowns, z, a, b, ok, ref, fixed=(fixed, values))
@@ -462,7 +424,7 @@ def _written(candidates, values, negligible: float) -> dict[str, list[complex]]:
 def _residual_components(plan: _Plan, candidates, values) -> dict[str, np.ndarray]:
     """The components (name -> (order,)) at unit speed of the engine with the
     candidates at ``values``."""
-    return _components(*_with_elements(plan.engine.force, plan.engine.moment, candidates, values, *plan.frame),
+    return component_phasors(*_with_elements(plan.engine.force, plan.engine.moment, candidates, values, *plan.frame),
                        plan.frame[1])
 
 
@@ -513,27 +475,6 @@ def _confirm(unit, plan: _Plan, ok, predicted):
     return (ok, predicted) if changed else None
 
 
-def _check_conditioning(scene: Scene, free, targets) -> None:
-    """Refuse a request whose least-squares system has a weak direction: a
-    kept singular value below LEVERAGE_MIN of the system whose unknowns are
-    measured by their gross force and whose moment rows are divided by the
-    engine's length (:mod:`harmbal.balance.sanity`). Independent of the
-    engine's loads and masses."""
-    kmax, sense, ref = scene.sampling.max_order, scene.sense, np.asarray(scene.reference_point, dtype=float)
-    unknowns = [u for c in free for u in c.unknowns()]
-    if not unknowns or not targets:
-        return
-    length = engine_length(scene)
-    weights = {name: 1.0 if group == "force" else 1.0 / length if length > 0 else 1.0 for name, group in COMPONENTS}
-    gross = np.repeat([gross_force(u) for u in unknowns], 2)
-    a = _matrix(unknowns, targets, kmax, sense, ref, weights) / np.where(gross > 0, gross, 1.0)
-    owner = [i for i, c in enumerate(free) for _ in c.unknowns()]
-    stages, _ = _stages(a, targets)
-    for stage in stages:
-        if stage.rank and stage.singular[stage.rank - 1] < LEVERAGE_MIN:
-            raise conditioning_error(scene.source, free, owner, targets, stage, stage.rank - 1)
-
-
 def _made_worse(plan: _Plan, designed: Scene, unit) -> dict:
     """The made-worse check of every order and component at the design
     speed: the engine's order phasors (with the elements it already has)
@@ -545,7 +486,7 @@ def _made_worse(plan: _Plan, designed: Scene, unit) -> dict:
     w2 = designed.speeds[0] ** 2
     scales = (w2 * plan.zero[0], w2 * plan.zero[1])
     names = [n for n, _ in COMPONENTS]
-    before, after = (w2 * np.array([_components(p.force, p.moment, designed.sense)[n] for n in names])[:, 1:].T
+    before, after = (w2 * np.array([component_phasors(p.force, p.moment, designed.sense)[n] for n in names])[:, 1:].T
                      for p in (plan.engine, after))  # (order 1 … max_order, component)
     targeted = np.array([[(k, n) in plan.targets for n in names]
                          for k in checked_orders(designed.sampling.max_order)])
@@ -553,69 +494,6 @@ def _made_worse(plan: _Plan, designed: Scene, unit) -> dict:
             **{f"{kind}_scale": ((), s, {"units": units, "long_name": f"sum of single-body peak {kind}s without "
                                                                        "balancer elements"})
                for kind, units, s in (("force", "N", scales[0]), ("moment", "N m", scales[1]))}}
-
-
-#: Singular values at most this fraction of the whole (weighted) matrix's
-#: 2-norm are round-off in :func:`_prioritised_least_squares`.
-RANK_RTOL = 1e-10
-
-
-@dataclass(frozen=True)
-class _Stage:
-    """One priority group of :func:`_prioritised_least_squares`: its real
-    ``rows``, the orthonormal ``basis`` of the minimisers left by the groups
-    before, and the SVD ``u``, ``singular``, ``vt`` of ``a[rows] @ basis``
-    of which the first ``rank`` singular values are kept."""
-
-    group: str
-    rows: list[int]
-    basis: np.ndarray
-    u: np.ndarray
-    singular: np.ndarray
-    vt: np.ndarray
-    rank: int
-
-
-def _stages(a: np.ndarray, targets) -> tuple[list[_Stage], np.ndarray]:
-    """The stages of :func:`_prioritised_least_squares` for the matrix ``a``
-    (they do not depend on the right-hand side) and the basis of the
-    minimisers left after the last."""
-    n = len(targets)
-    basis = np.eye(a.shape[1])
-    cutoff = RANK_RTOL * (np.linalg.norm(a, 2) if a.size else 0.0)
-    stages = []
-    for group in ("force", "moment", "roll"):
-        rows = [i for i, (_, name) in enumerate(targets) if name.startswith(group)]
-        if not rows or basis.shape[1] == 0:
-            continue
-        rows += [i + n for i in rows]
-        u, singular, vt = np.linalg.svd(a[rows] @ basis)
-        rank = int((singular > cutoff).sum())
-        stages.append(_Stage(group, rows, basis, u, singular, vt, rank))
-        basis = basis @ vt[rank:].T
-    return stages, basis
-
-
-def _prioritised_least_squares(a: np.ndarray, b: np.ndarray, targets) -> np.ndarray:
-    """Minimise |b + a·z| for the force rows, then, among those minimisers,
-    for the moment rows, then for the roll rows; finally take the smallest z.
-
-    Each stage is exact where it can be and least squares where it cannot,
-    and never gives up what an earlier stage achieved. The minimisers of a
-    stage form z₀ + N·y with N spanning the null space of that stage's rows
-    restricted to the earlier null space. Singular values are judged against
-    the whole matrix (rows are already scaled alike), not within a stage:
-    a stage whose restricted rows are round-off must not be solved with them.
-    ``b`` may be a matrix (rows, ...): then z is one column per column of b,
-    the solution being linear in b for a fixed a.
-    """
-    stages, null = _stages(a, targets)
-    z = np.zeros(a.shape[1:] + b.shape[1:])
-    for s in stages:
-        rhs = -(b[s.rows] + a[s.rows] @ z)
-        step = np.divide((s.u[:, :s.rank].T @ rhs).T, s.singular[:s.rank]).T
-        z = z + s.basis @ (s.vt[:s.rank].T @ step)
-    return z - null @ (null.T @ z)  # the smallest unbalances among the minimisers
 
 
 def _cancelled(components: dict[str, np.ndarray], targets, plan: _Plan) -> dict[tuple[int, str], bool]:

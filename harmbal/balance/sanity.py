@@ -43,6 +43,8 @@ import math
 import numpy as np
 
 from ..scene import Scene
+from ..scene.requests import COMPONENTS
+from .least_squares import priority_stages, response_matrix
 from .solvers import DesignError
 
 #: Smallest leverage (target per unit of gross element force, moments per the
@@ -97,8 +99,8 @@ def advice(candidate, group: str) -> str:
 
 
 def conditioning_error(source: str, free, unknown_owner: list[int], targets, stage, index: int) -> DesignError:
-    """The refusal for the weak direction ``index`` of a stage (an object
-    with ``group``, ``rows``, ``basis``, ``u``, ``singular``, ``vt``):
+    """The refusal for the weak direction ``index`` of a stage
+    (:class:`~harmbal.balance.least_squares.Stage`):
     which orders, which candidates, and what to change."""
     leverage = float(stage.singular[index])
     direction = stage.basis @ stage.vt[index]  # over the real unknowns
@@ -117,6 +119,43 @@ def conditioning_error(source: str, free, unknown_owner: list[int], targets, sta
         f"only weakly (leverage {leverage:.3g}, refused below {LEVERAGE_MIN:g}): cancelling it would take elements "
         f"{times} times larger than what they cancel; {'; or '.join(advice(c, stage.group) for c in parts)} "
         "(docs/design.md, \"Ill-conditioned requests\")")
+
+
+def check_conditioning(scene: Scene, free, targets: list[tuple[int, str]]) -> None:
+    """Refuse a request whose least-squares system has a weak direction.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene being balanced (its order range, sense, reference point
+        and :func:`engine_length`).
+    free : list of Candidate
+        The candidates the least squares solve (not the balance-factor ones).
+    targets : list of (int, str)
+        :func:`harmbal.balance.least_squares.design_targets` of the request.
+
+    Raises
+    ------
+    DesignError
+        If a kept singular value of a stage is below :data:`LEVERAGE_MIN` in
+        the system whose unknowns are measured by their gross force and whose
+        moment rows are divided by the engine's length
+        (:func:`conditioning_error`). Independent of the engine's loads and
+        masses.
+    """
+    kmax, sense, ref = scene.sampling.max_order, scene.sense, np.asarray(scene.reference_point, dtype=float)
+    unknowns = [u for c in free for u in c.unknowns()]
+    if not unknowns or not targets:
+        return
+    length = engine_length(scene)
+    weights = {name: 1.0 if group == "force" else 1.0 / length if length > 0 else 1.0 for name, group in COMPONENTS}
+    gross = np.repeat([gross_force(u) for u in unknowns], 2)
+    a = response_matrix(unknowns, targets, kmax, sense, ref, weights) / np.where(gross > 0, gross, 1.0)
+    owner = [i for i, c in enumerate(free) for _ in c.unknowns()]
+    stages, _ = priority_stages(a, targets)
+    for stage in stages:
+        if stage.rank and stage.singular[stage.rank - 1] < LEVERAGE_MIN:
+            raise conditioning_error(scene.source, free, owner, targets, stage, stage.rank - 1)
 
 
 def size_error(source: str, candidates, values, force_scale: float) -> DesignError | None:

@@ -37,25 +37,14 @@ import numpy as np
 
 from ..model.evaluate import evaluate
 from ..model.linear import PROPERTIES, planar_basis
-from ..orders.linear import LinearPhasors, _matmul, combine, linear_phasors, slot_values
+from ..orders.linear import LinearPhasors, combine, linear_phasors, real_matmul, slot_values
 from ..orders.spectrum import BALANCED_RTOL
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, Candidate, DesignRequest, LeverDesignRequest
-from .design import (
-    RANK_RTOL,
-    _check_conditioning,
-    _check_request,
-    _components,
-    _element_phasors,
-    _factor_scenes,
-    _factor_system,
-    _matrix,
-    _prioritised_least_squares,
-    _rows,
-    _stages,
-    _targets,
-)
-from .sanity import ELEMENT_LIMIT, gross_force, size_error
+from .design import check_request, factor_scenes, factor_system
+from .least_squares import (RANK_RTOL, component_phasors, design_targets, element_phasors, prioritised_least_squares,
+                            priority_stages, response_matrix, target_rows)
+from .sanity import ELEMENT_LIMIT, check_conditioning, gross_force, size_error
 from .solvers import DesignError
 
 #: Variants whose sampled cylinder loads are held at a time (bounds the memory of :func:`_peaks`).
@@ -236,7 +225,7 @@ def _scale_bounds(bounds: _PeakBounds, slots: np.ndarray) -> tuple[np.ndarray, .
 
 
 def _factor_map(scene: Scene, candidate: Candidate, weights: dict[str, float]) -> np.ndarray:
-    """The balance-factor rule (:func:`~harmbal.balance.design._factor_counterweights`)
+    """The balance-factor rule (:func:`harmbal.design`'s balance-factor counterweights)
     per slot: (slot + 1, real unknown).
 
     Its rows are weighted by the variant's scales; with linearly independent
@@ -244,12 +233,12 @@ def _factor_map(scene: Scene, candidate: Candidate, weights: dict[str, float]) -
     the weights, so one map serves every variant. Otherwise the weighted
     least-squares solution depends on the variant's scales: refused."""
     sense, kmax = scene.sense, scene.sampling.max_order
-    rot, rec = (linear_phasors(s) for s in _factor_scenes(scene))
+    rot, rec = (linear_phasors(s) for s in factor_scenes(scene))
     f = candidate.balance_factor
     force = _extended(rot.force + 2 * f * rec.force, rot.constant_force + 2 * f * rec.constant_force)
     moment = _extended(rot.moment + 2 * f * rec.moment, rot.constant_moment + 2 * f * rec.constant_moment)
-    a, rows = _factor_system(candidate, kmax, sense, np.asarray(scene.reference_point, dtype=float), weights)
-    z, _, rank, _ = np.linalg.lstsq(a, -_rows(_components(force, moment, sense), rows, weights), rcond=None)
+    a, rows = factor_system(candidate, kmax, sense, np.asarray(scene.reference_point, dtype=float), weights)
+    z, _, rank, _ = np.linalg.lstsq(a, -target_rows(component_phasors(force, moment, sense), rows, weights), rcond=None)
     if rank < a.shape[0]:
         raise DesignError(f"{scene.source}: design.counterweights ({candidate.label!r}): the balance-factor rule's "
                           "force and moment rows are dependent (planes at one axial position?), so its sizes "
@@ -260,7 +249,7 @@ def _factor_map(scene: Scene, candidate: Candidate, weights: dict[str, float]) -
 def _unit_responses(unknowns, kmax: int, sense: int, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Force and moment phasors (2 × unknown, axis, order) per unit of the
     real and imaginary part of each unknown."""
-    pairs = [_element_phasors(placements, value, kmax, sense, ref) for placements in unknowns for value in (1.0, 1j)]
+    pairs = [element_phasors(placements, value, kmax, sense, ref) for placements in unknowns for value in (1.0, 1j)]
     empty = np.zeros((0, 3, kmax + 1), dtype=complex)
     return (np.array([f for f, _ in pairs]), np.array([m for _, m in pairs])) if pairs else (empty, empty)
 
@@ -299,7 +288,7 @@ def design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest | No
     """
     request = request or scene.design
     _refuse_nonlinear(scene, request)
-    _check_request(scene, request)
+    check_request(scene, request)
     names, _ = slot_values(scene)
     if names != basis.slots:
         raise ValueError(f"{scene.source}: the basis has other slots than the scene: {basis.slots} != {names}")
@@ -325,20 +314,20 @@ def _design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest, na
     bounds = _peak_bounds(scene)
     force_scale, moment_scale = (float(s[0]) for s in _scales(bounds, basis.values[None]))
     weights = {name: float(_weight(force_scale if group == "force" else moment_scale)) for name, group in COMPONENTS}
-    targets = _targets(request)
+    targets = design_targets(request)
 
-    engine = _components(_extended(basis.force, basis.constant_force),
+    engine = component_phasors(_extended(basis.force, basis.constant_force),
                          _extended(basis.moment, basis.constant_moment), scene.sense)  # name -> (slot + 1, order)
     unknowns = [u for c in request.candidates for u in c.unknowns()]
-    response = _components(*_unit_responses(unknowns, *frame), scene.sense)  # name -> (2 × unknown, order)
+    response = component_phasors(*_unit_responses(unknowns, *frame), scene.sense)  # name -> (2 × unknown, order)
     columns = _columns(request.candidates)
     z = np.zeros((len(names) + 1, 2 * len(unknowns)))
     for c in request.candidates:
         if c.balance_factor is not None:
             z[:, columns[c.label]] = _factor_map(scene, c, weights)
     free = np.array([j for c in request.candidates if c.balance_factor is None for j in columns[c.label]], dtype=int)
-    b = _rows({n: engine[n] + z @ response[n] for n in engine}, targets, dict.fromkeys(weights, 1.0))
-    _check_conditioning(scene, [c for c in request.candidates if c.balance_factor is None], targets)
+    b = target_rows({n: engine[n] + z @ response[n] for n in engine}, targets, dict.fromkeys(weights, 1.0))
+    check_conditioning(scene, [c for c in request.candidates if c.balance_factor is None], targets)
     z[:, free], solver = _free_map(request, targets, b, free, weights, frame)
 
     placements = [(e, p) for e, u in enumerate(unknowns) for p in u]
@@ -366,17 +355,17 @@ def _free_map(request: DesignRequest, targets, b: np.ndarray, free: np.ndarray, 
     ``b`` (row, slot + 1) of every slot as right-hand sides, weighted by the
     scene's scales: the map (slot + 1, real free unknown), and what a direct
     solve needs."""
-    a = _matrix([u for c in request.candidates if c.balance_factor is None for u in c.unknowns()], targets, *frame,
-                dict.fromkeys(weights, 1.0))
+    unknowns = [u for c in request.candidates if c.balance_factor is None for u in c.unknowns()]
+    a = response_matrix(unknowns, targets, *frame, dict.fromkeys(weights, 1.0))
     moment_rows = np.array([not name.startswith("force") for _, name in targets] * 2, dtype=bool)
     w = np.where(moment_rows, weights["moment_co"], weights["force_co"])[:, None]
-    stages, _ = _stages(w * a, targets)
+    stages, _ = priority_stages(w * a, targets)
     group_weight = {"force": weights["force_co"], "moment": weights["moment_co"], "roll": weights["roll"]}
     solver = _Solver(
         targets=targets, free=free, a=a, b=b, moment_rows=moment_rows,
         stages=tuple((s.group, s.singular / group_weight[s.group], s.rank) for s in stages),
         norms=tuple(float(np.linalg.norm(a[rows], 2)) if a[rows].size else 0.0 for rows in (~moment_rows, moment_rows)))
-    return _prioritised_least_squares(w * a, w * b, targets).T, solver
+    return prioritised_least_squares(w * a, w * b, targets).T, solver
 
 
 def _rank_may_differ(solver: _Solver, force_scale: np.ndarray, moment_scale: np.ndarray) -> np.ndarray:
@@ -409,7 +398,7 @@ def _solve(solver: _Solver, values: np.ndarray, force_scale: float, moment_scale
     """The free real unknowns of one variant (slot values with a trailing 1)
     by design's own solver with its own weights."""
     w = np.where(solver.moment_rows, _weight(moment_scale), _weight(force_scale))
-    return _prioritised_least_squares(w[:, None] * solver.a, w * (solver.b @ values), solver.targets)
+    return prioritised_least_squares(w[:, None] * solver.a, w * (solver.b @ values), solver.targets)
 
 
 def _without_elements(bounds: _PeakBounds) -> _PeakBounds:
@@ -538,7 +527,7 @@ def design_variants(dbasis: DesignBasis, slots: np.ndarray, orders=None) -> dict
     for column, unknown in enumerate(dbasis.placement_unknown):
         kept[:, unknown] |= written[:, column]
     # Design's residual and "cancelled" are those of the elements as written, judged by the engine's scales.
-    residual = _matmul(values, dbasis.engine) + _matmul(z * np.repeat(kept, 2, axis=1), dbasis.response)
+    residual = real_matmul(values, dbasis.engine) + real_matmul(z * np.repeat(kept, 2, axis=1), dbasis.response)
     engine_force, engine_moment = _engine_scales(dbasis.bounds, slots, exact | unsure, force_low, force_high,
                                                  moment_low, moment_high, residual, dbasis)
     cancelled = _cancelled(dbasis, residual, engine_force, engine_moment)
@@ -549,7 +538,7 @@ def design_variants(dbasis: DesignBasis, slots: np.ndarray, orders=None) -> dict
     picked = slice(None) if orders is None else orders
     columns = (2 * dbasis.placement_unknown[:, None] + np.arange(2)).ravel()
     parts = z[:, columns] * np.repeat(written, 2, axis=1)
-    force += _matmul(parts, np.ascontiguousarray(dbasis.placement_force[..., picked]))
-    moment += _matmul(parts, np.ascontiguousarray(dbasis.placement_moment[..., picked]))
+    force += real_matmul(parts, np.ascontiguousarray(dbasis.placement_force[..., picked]))
+    moment += real_matmul(parts, np.ascontiguousarray(dbasis.placement_moment[..., picked]))
     return {"unbalance": unbalance, "residual": residual, "cancelled": cancelled, "force": force, "moment": moment,
             "direct": direct}

@@ -33,8 +33,8 @@ import numpy as np
 from ..labelled import Speeds, dataset
 from ..model.evaluate import evaluate
 from ..model.sampling import choose_samples
-from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO_RTOL, classify, negligible_level, phasors, rotating_split,
-                               zero_below_round_off)
+from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO_RTOL, classify, negligible_level, phasors,
+                               transverse_split, zero_below_round_off)
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
 from ..views.time import body_aliasing
@@ -81,8 +81,8 @@ def spectrum_components(spectrum: np.ndarray, sense: int) -> np.ndarray:
     """Per component of :data:`COMPONENTS`, the phasors (component, order) of
     one force and moment spectrum (force/moment, axis, order), e.g. one of
     :func:`residual_spectra`."""
-    co_f, counter_f = rotating_split(spectrum[0, 2], -sense * spectrum[0, 1])
-    co_m, counter_m = rotating_split(spectrum[1, 2], -sense * spectrum[1, 1])
+    co_f, counter_f = transverse_split(spectrum[0], sense)
+    co_m, counter_m = transverse_split(spectrum[1], sense)
     return np.stack([co_f, counter_f, co_m, counter_m, spectrum[1, 0]])
 
 

@@ -1,1 +1,1 @@
-"""Stage 6, files: netCDF archives of analysis trees and atomic writes."""
+"""The files stage: netCDF and Zarr archives of analysis trees, their integrity checks, atomic writes."""

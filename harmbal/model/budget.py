@@ -83,7 +83,7 @@ _LOADS_PER_SPEED_ROW = 450.0
 _LOADS_SECONDS = 3.2e-8
 _VERIFY_PER_CYLINDER_SAMPLE = 300.0
 # Sweeps: per variant, per variant and order (amplitudes, tables), phasors per order, blocks of 2¹⁶
-# variants (harmbal.studies.sweep._BLOCK), peaks' blocks, and each distinct geometry read and evaluated.
+# variants (harmbal.studies.evaluate.BLOCK), peaks' blocks, and each distinct geometry read and evaluated.
 _VARIANT = 80.0
 _VARIANT_ORDER = 24.0
 _VARIANT_PHASORS = 250.0

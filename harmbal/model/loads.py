@@ -5,7 +5,7 @@ assembly multiplies by ω². A load is what the moving body exerts on the block:
 the force −m·a_G and, about the crank axis, the moment −(r_G × m·a_G + I·ϑ̈).
 
 Planar loads are returned in the cylinder's local frame (see
-:mod:`harmbal.kinematics`) as a :class:`PlanarLoad`; ``roll`` is the moment
+:mod:`harmbal.model.kinematics`) as a :class:`PlanarLoad`; ``roll`` is the moment
 about the crank axis, positive in the direction of rotation, ``energy`` the
 kinetic energy of the bodies involved and ``power`` its derivative d/dθ, from
 which the reaction of the torque that keeps the crank at constant speed

@@ -17,7 +17,7 @@ solved in closed form, vectorised over angles:
 3. the crankshaft: its force equation gives the main-bearing force D and its
    moment equation about the crank axis the drive torque.
 
-Every force is a w-plane vector (see :mod:`harmbal.linkage`) until the
+Every force is a w-plane vector (see :mod:`harmbal.model.linkage`) until the
 Dataset is built in engine axes (y, z). Joint forces are what the first-named
 body exerts on the second (e.g. "frame on rocker"). The reactions on the
 frame sum to the shaking force −Σ m·a_G exactly (tested).

@@ -153,7 +153,7 @@ def linear_phasors(scene: Scene, samples_per_rev: int | None = None, backend: st
                          constant_moment=moment_about(ref, constant_force, constant_moment), samples_per_rev=n)
 
 
-def _matmul(weights: np.ndarray, basis: np.ndarray) -> np.ndarray:
+def real_matmul(weights: np.ndarray, basis: np.ndarray) -> np.ndarray:
     """weights (variant, slot) @ complex basis (slot, ...) in real arithmetic
     (a complex product would promote the real weights and cost four times)."""
     flat = np.ascontiguousarray(basis.reshape(basis.shape[0], -1)).view(float)
@@ -183,7 +183,7 @@ def combine(basis: LinearPhasors, values: np.ndarray, orders=None) -> tuple[np.n
         force, moment = force[..., orders], moment[..., orders]
         constant_force, constant_moment = constant_force[..., orders], constant_moment[..., orders]
     values = np.asarray(values, dtype=float)
-    return _matmul(values, force) + constant_force, _matmul(values, moment) + constant_moment
+    return real_matmul(values, force) + constant_force, real_matmul(values, moment) + constant_moment
 
 
 def time_basis(basis: LinearPhasors, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

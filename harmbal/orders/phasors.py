@@ -35,7 +35,9 @@ class OrderPhasors:
     Force and moment (about the scene's reference point) per cylinder
     (cylinder, axis, order) including the cylinder's throw unbalances, and of
     the crankshaft unbalances (axis, order). ``peak_force``/``peak_moment``
-    bound each cylinder's peak load (for tolerances) and ``alias_force``/
+    bound each cylinder's peak load (for tolerances), ``force_scale``/
+    ``moment_scale`` are the evaluation's load scales
+    (:attr:`harmbal.model.evaluate.UnitLoads.force_scale`) and ``alias_force``/
     ``alias_moment`` estimate each cylinder's aliasing error. Lever balancers
     are not harmonic: their phasors come from the FFT of their exact loads.
     """
@@ -48,6 +50,8 @@ class OrderPhasors:
     peak_moment: np.ndarray
     crankshaft_peak_force: float
     crankshaft_peak_moment: float
+    force_scale: float
+    moment_scale: float
     alias_force: np.ndarray
     alias_moment: np.ndarray
     samples_per_rev: int
@@ -140,6 +144,7 @@ def order_phasors(unit: UnitLoads, backend: str = "scipy") -> OrderPhasors:
         force_crankshaft=crank_force, moment_crankshaft=moment_about(ref, crank_force, crank_moment),
         peak_force=unit.peak_force, peak_moment=unit.peak_moment,
         crankshaft_peak_force=unit.crankshaft_peak_force, crankshaft_peak_moment=unit.crankshaft_peak_moment,
+        force_scale=unit.force_scale, moment_scale=unit.moment_scale,
         alias_force=alias_force, alias_moment=alias_roll + unit.lever_arm * alias_force,
         samples_per_rev=n, groups=int(group.max(initial=-1)) + 1, sense=sense,
         crankshaft_alias_force=lever_alias_force, crankshaft_alias_moment=lever_alias_moment,

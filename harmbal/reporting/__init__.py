@@ -1,1 +1,1 @@
-"""Stage 7, what people read: CLI tables, matplotlib figures and the HTML report."""
+"""The reporting stage, what people read: CLI tables, matplotlib figures and the HTML report."""

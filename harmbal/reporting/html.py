@@ -500,10 +500,10 @@ def _shown_speeds(rpm) -> tuple[list[int], str]:
     """Indices of the speeds given a row in the per-speed tables (those the
     CLI prints), and a note naming those left out; every speed is in the
     Datasets."""
-    from .tables import _printed_speeds
+    from .tables import printed_speeds
 
     rpm = np.atleast_1d(rpm)
-    shown = list(_printed_speeds(rpm, []))
+    shown = list(printed_speeds(rpm, []))
     if len(shown) == rpm.size:
         return shown, ""
     return shown, (f'<p class="note">{rpm.size} speeds from {rpm.min():.6g} to {rpm.max():.6g} rpm: the lowest and '

@@ -17,7 +17,7 @@ they work headless and leave no global state behind. matplotlib is imported
 only when a function here is called: ``import harmbal`` stays light.
 
 >>> import harmbal as hb
->>> from harmbal.plots import save_figure, stars_figure
+>>> from harmbal.reporting.plots import save_figure, stars_figure
 >>> ds = hb.stars(hb.load_scene("datasets/engines/v-twin-90.toml"))  # doctest: +SKIP
 >>> save_figure(stars_figure(ds, orders=[1, 2]), "v-twin-90.svg")   # doctest: +SKIP
 """
@@ -106,7 +106,8 @@ _QUANTITIES = {"force": ("Force", "F", "N"), "moment": ("Moment", "M", "N m")}
 _PREFIXES = {-12: "p", -9: "n", -6: "µ", -3: "m", 0: "", 3: "k", 6: "M", 9: "G", 12: "T"}
 
 
-def _colour(name: str) -> str:
+def named_colour(name: str) -> str:
+    """The hex colour of an Okabe–Ito colour's ``name`` (:data:`OKABE_ITO`)."""
     return OKABE_ITO[name]
 
 
@@ -140,17 +141,17 @@ def fitted(text: str, width: float, fontsize: float) -> str:
     return "\n".join(lines).replace("\0", " ")
 
 
-def _suptitle(fig: Figure, text: str, fontsize: float, **style) -> None:
+def suptitle(fig: Figure, text: str, fontsize: float, **style) -> None:
     """The figure's title, wrapped to its width (:func:`fitted`)."""
     fig.suptitle(fitted(text, 0.96 * fig.get_figwidth(), fontsize), fontsize=fontsize, **style)
 
 
-def _supxlabel(fig: Figure, text: str, fontsize: float, **style) -> None:
+def supxlabel(fig: Figure, text: str, fontsize: float, **style) -> None:
     """The figure's footnote, wrapped to its width (:func:`fitted`)."""
     fig.supxlabel(fitted(text, 0.96 * fig.get_figwidth(), fontsize), fontsize=fontsize, **style)
 
 
-def _page(values) -> tuple[np.ndarray, np.ndarray]:
+def page_coordinates(values) -> tuple[np.ndarray, np.ndarray]:
     """Page coordinates (horizontal, vertical) of transverse vectors
     w = z + i·t: t to the right, z up."""
     values = np.asarray(values)
@@ -175,14 +176,14 @@ def _degrees(value: complex) -> str:
     return f"{phase_degrees(value, 1):.1f}°"
 
 
-def _t_label(rotation: str) -> str:
+def t_label(rotation: str) -> str:
     """What t is in the engine frame for a sense of rotation."""
     return "+y" if rotation == "clockwise" else "−y"
 
 
-def _rotation_label(stars: xr.Dataset) -> str:
+def rotation_label(stars: xr.Dataset) -> str:
     """What t is in the engine frame, from the dataset's rotation."""
-    return _t_label(stars.attrs.get("rotation", "clockwise"))
+    return t_label(stars.attrs.get("rotation", "clockwise"))
 
 
 def _check_order(stars: xr.Dataset, order: int) -> int:
@@ -247,8 +248,8 @@ def bank_colours(stars: xr.Dataset) -> list[str]:
     """The colour of each bank's arms: by bank for a multi-bank engine, else black."""
     banks = np.asarray(stars["bank"].values, dtype=float)
     if len(banks) == 1:
-        return [_colour("black")]
-    return [_colour(BANK_COLOURS[j % len(BANK_COLOURS)]) for j in range(len(banks))]
+        return [named_colour("black")]
+    return [named_colour(BANK_COLOURS[j % len(BANK_COLOURS)]) for j in range(len(banks))]
 
 
 def star_arms_drawn(ax: Axes, stars: xr.Dataset, order: int, centre: tuple[float, float] = (0.0, 0.0),
@@ -365,7 +366,7 @@ def crank_star(stars: xr.Dataset, order: int, ax: Axes | None = None) -> Axes:
     ax.set_xticks([-1, 0, 1])
     ax.set_yticks([-1, 0, 1])
     ax.tick_params(labelsize=7)
-    ax.set_xlabel(f"t = {_rotation_label(stars)} [unit arm]", fontsize=8)
+    ax.set_xlabel(f"t = {rotation_label(stars)} [unit arm]", fontsize=8)
     ax.set_ylabel("z [unit arm]", fontsize=8)
     return ax
 
@@ -468,7 +469,7 @@ def phasor_diagram(stars: xr.Dataset, order: int, quantity: str = "force", ax: A
         points.extend(heads)
         points.append(resultant)
     points = np.asarray(points)
-    x, y = _page(points)
+    x, y = page_coordinates(points)
     half = max(np.ptp(x), np.ptp(y), np.abs(x).max(), np.abs(y).max()) * 0.55
     if not half > 0:
         half = 1.0
@@ -480,17 +481,17 @@ def phasor_diagram(stars: xr.Dataset, order: int, quantity: str = "force", ax: A
 
     for rotation, width, z in (("co", 0.014, 3), ("counter", 0.008, 4)):
         labels, arrows, tails, resultant = chains[rotation]
-        light, dark = (_colour(c) for c in ROTATION_COLOURS[rotation])
-        tx, ty = _page(tails)
-        u, v = _page(arrows)
+        light, dark = (named_colour(c) for c in ROTATION_COLOURS[rotation])
+        tx, ty = page_coordinates(tails)
+        u, v = page_coordinates(arrows)
         ax.quiver(tx, ty, u, v, angles="xy", scale_units="xy", scale=1, units="width", width=width,
                   headwidth=3.2, headlength=4.5, headaxislength=4, minlength=0, color=light, zorder=z,
                   gid=f"order{k}-{quantity}-{rotation}-cylinders")
         for place, text in _arrow_labels(labels, tails, arrows, span, 1 if rotation == "co" else -1):
-            px, py = _page(place)
+            px, py = page_coordinates(place)
             ax.text(px, py, text, fontsize=6.5, color=dark, ha="center", va="center", zorder=6)
         if free[rotation] and resultant != 0:
-            rx, ry = _page(resultant)
+            rx, ry = page_coordinates(resultant)
             ax.quiver([0], [0], [rx], [ry], angles="xy", scale_units="xy", scale=1, units="width",
                       width=0.028, headwidth=2.6, headlength=3.2, headaxislength=2.9, minlength=0,
                       color=dark, alpha=0.55, zorder=2, gid=f"order{k}-{quantity}-{rotation}-resultant")
@@ -510,7 +511,7 @@ def phasor_diagram(stars: xr.Dataset, order: int, quantity: str = "force", ax: A
     ax.locator_params(nbins=TICKS)
     ax.tick_params(labelsize=7)
     prefixed = f"{_PREFIXES[exponent]}{unit}"
-    ax.set_xlabel(f"{symbol} t = {_rotation_label(sel)} [{prefixed}]", fontsize=8)
+    ax.set_xlabel(f"{symbol} t = {rotation_label(sel)} [{prefixed}]", fontsize=8)
     ax.set_ylabel(f"{symbol} z [{prefixed}]", fontsize=8)
     speed_text = f" at {rpm:.6g} rpm" if "speed" in stars.dims else ""
     ax.set_title(f"{name}, order {k}{speed_text}: phasors at θ = 0", fontsize=9)
@@ -598,16 +599,16 @@ def stars_figure(stars: xr.Dataset, orders: Sequence[int] | None = None, speed: 
         phasor_diagram(sel, k, "force", row[1])
         phasor_diagram(sel, k, "moment", row[2])
     engine = stars.attrs.get("engine", "")
-    view = "front" if _rotation_label(stars) == "+y" else "rear"
-    _suptitle(fig, f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", fontsize=12)
-    _supxlabel(fig, f"+z up, angles clockwise in the direction of rotation, t = {_rotation_label(stars)} to the "
-                  f"right (the engine seen from the {view}; {stars.attrs.get('rotation', 'clockwise')} "
-                  "rotation); moments about the reference point; cs = crankshaft unbalances\n"
-                  f"firing order {stars.attrs.get('firing_order', '?')}", fontsize=7, color="0.3")
+    view = "front" if rotation_label(stars) == "+y" else "rear"
+    suptitle(fig, f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", fontsize=12)
+    supxlabel(fig, f"+z up, angles clockwise in the direction of rotation, t = {rotation_label(stars)} to the "
+                 f"right (the engine seen from the {view}; {stars.attrs.get('rotation', 'clockwise')} "
+                 "rotation); moments about the reference point; cs = crankshaft unbalances\n"
+                 f"firing order {stars.attrs.get('firing_order', '?')}", fontsize=7, color="0.3")
     return fig
 
 
-def _at_speed(ds: xr.Dataset, speed: int) -> tuple[xr.Dataset, float]:
+def at_speed(ds: xr.Dataset, speed: int) -> tuple[xr.Dataset, float]:
     """The dataset at speed index ``speed`` and that speed in rpm.
 
     Raises
@@ -633,10 +634,10 @@ def _runs(time: xr.Dataset, after: xr.Dataset | None, speed: int) -> tuple[dict[
     ValueError
         If ``after`` is at another speed.
     """
-    before, rpm = _at_speed(time, speed)
+    before, rpm = at_speed(time, speed)
     runs = {"before": before}
     if after is not None:
-        runs["after"], other = _at_speed(after, speed)
+        runs["after"], other = at_speed(after, speed)
         if not np.isclose(other, rpm, rtol=1e-9, atol=0):
             raise ValueError(f"'after' is at {other:.6g} rpm, not {rpm:.6g} rpm (speed index {speed})")
     return runs, rpm
@@ -699,14 +700,14 @@ def _note(ax: Axes, text: str) -> None:
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.35")
 
 
-def _series_style(index: int) -> dict:
+def series_style(index: int) -> dict:
     """Colour and line style of the ``index``-th series without a fixed
     colour: the colours cycle first, then the line styles."""
-    return {"color": _colour(SERIES_COLOURS[index % len(SERIES_COLOURS)]),
+    return {"color": named_colour(SERIES_COLOURS[index % len(SERIES_COLOURS)]),
             "ls": SERIES_STYLES[(index // len(SERIES_COLOURS)) % len(SERIES_STYLES)]}
 
 
-def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], labels: dict[str, str],
+def phasor_bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], labels: dict[str, str],
           scale: float, rtol: float, log: bool, gid: str, level=0.0, collected: bool = False) -> None:
     """Grouped bars of |phasor| per order, one bar per entry of ``dim``.
 
@@ -729,10 +730,10 @@ def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], la
     for j, entry in enumerate(entries):
         centre = order + (j - (len(entries) - 1) / 2) * width
         if collected and not log:
-            _bar_collection(ax, centre, heights[:, j], width, _colour(colours[entry]), f"{gid}-{entry}")
+            _bar_collection(ax, centre, heights[:, j], width, named_colour(colours[entry]), f"{gid}-{entry}")
             continue
         keep = heights[:, j] > 0 if log else np.ones(len(order), dtype=bool)
-        bars = ax.bar(centre[keep], heights[keep, j], width, color=_colour(colours[entry]), log=log)
+        bars = ax.bar(centre[keep], heights[keep, j], width, color=named_colour(colours[entry]), log=log)
         for bar, k in zip(bars, order[keep]):
             bar.set_gid(f"{gid}-{entry}-order{_order_label(k)}")
     if not heights.any():
@@ -744,7 +745,7 @@ def _bars(ax: Axes, phasors: xr.DataArray, dim: str, colours: dict[str, str], la
     ax.tick_params(labelsize=7)
     if not log:
         ax.locator_params(axis="y", nbins=TICKS)
-    ax.legend(handles=[Patch(color=_colour(colours[e]), label=labels[e]) for e in entries], fontsize=7,
+    ax.legend(handles=[Patch(color=named_colour(colours[e]), label=labels[e]) for e in entries], fontsize=7,
               frameon=False)
 
 
@@ -798,7 +799,7 @@ def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: i
     """
     from matplotlib.figure import Figure
 
-    sel, rpm = _at_speed(orders, speed)
+    sel, rpm = at_speed(orders, speed)
     if max_order is not None:
         sel = sel.sel(order=sel["order"] <= max_order)
     rtol = float(orders.attrs.get("balanced_rtol", BALANCED_RTOL))
@@ -813,19 +814,19 @@ def order_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: i
         name, symbol, unit = _QUANTITIES[quantity]
         scale = float(sel[f"{quantity}_scale"])
         level = _negligible_levels(sel, quantity)
-        _bars(row[0], sel[quantity], "axis", AXIS_COLOURS, axis_labels, scale, rtol, log, quantity, level)
-        _bars(row[1], sel[f"{quantity}_rotating"], "rotation", SPECTRUM_ROTATION_COLOURS, rotation_labels,
-              scale, rtol, log, quantity, level[1])
+        phasor_bars(row[0], sel[quantity], "axis", AXIS_COLOURS, axis_labels, scale, rtol, log, quantity, level)
+        phasor_bars(row[1], sel[f"{quantity}_rotating"], "rotation", SPECTRUM_ROTATION_COLOURS, rotation_labels,
+                    scale, rtol, log, quantity, level[1])
         row[0].set_ylabel(f"|{symbol}_k| per axis [{unit}]", fontsize=8)
         row[1].set_ylabel(f"|P| [{unit}]", fontsize=8)
         row[0].set_title(f"{name} per engine axis (peak)", fontsize=9)
         row[1].set_title(f"{name}: co- and counter-rotating phasors", fontsize=9)
     zero = "omitted (log scale)" if log else "drawn as 0"
-    _suptitle(fig, f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the shaking loads",
-                 fontsize=11)
-    _supxlabel(fig, f"peak amplitudes; moments about the reference point; components zero to round-off or at most the "
-                  f"negligible level ({orders.attrs.get('negligible', 0.0):g} of one cylinder's share of the load "
-                  f"scale) are {zero}", fontsize=7, color="0.3")
+    suptitle(fig, f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the shaking loads",
+                fontsize=11)
+    supxlabel(fig, f"peak amplitudes; moments about the reference point; components zero to round-off or at most the "
+                 f"negligible level ({orders.attrs.get('negligible', 0.0):g} of one cylinder's share of the load "
+                 f"scale) are {zero}", fontsize=7, color="0.3")
     return fig
 
 
@@ -890,9 +891,9 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
         for run, ds in ({} if quiet else runs).items():
             angle, values = _closed(ds["angle"].values, ds[quantity].transpose("axis", "angle").values, span)
             for axis, trace in zip(ds["axis"].values, values):
-                ax.plot(angle, trace, color=_colour(AXIS_COLOURS[str(axis)]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run],
-                        gid=f"{quantity}-{axis}-{run}")
-        handles = [Line2D([], [], color=_colour(c), label=f"{symbol}_{a}") for a, c in AXIS_COLOURS.items()]
+                ax.plot(angle, trace, color=named_colour(AXIS_COLOURS[str(axis)]), ls=RUN_STYLES[run],
+                        lw=RUN_WIDTHS[run], gid=f"{quantity}-{axis}-{run}")
+        handles = [Line2D([], [], color=named_colour(c), label=f"{symbol}_{a}") for a, c in AXIS_COLOURS.items()]
         if after is not None:
             handles += [Line2D([], [], color="0.3", ls=RUN_STYLES[r], label=r) for r in runs]
         if not quiet:
@@ -905,7 +906,7 @@ def time_traces_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, spe
             ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     axes[0].set_title("Shaking force on the block", fontsize=9)
     axes[1].set_title("Shaking moment on the block about the reference point", fontsize=9)
-    _suptitle(fig, f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over {_period_name(time)}", fontsize=11)
+    suptitle(fig, f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: loads over {_period_name(time)}", fontsize=11)
     return fig
 
 
@@ -962,7 +963,7 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
         for run, ds in runs.items():
             values = ds[quantity].sel(axis=["y", "z"]).transpose("axis", "angle").values
             _, (y, z) = _closed(ds["angle"].values, values)
-            ax.plot(y, z, color=_colour(RUN_COLOURS[run]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run], label=run,
+            ax.plot(y, z, color=named_colour(RUN_COLOURS[run]), ls=RUN_STYLES[run], lw=RUN_WIDTHS[run], label=run,
                     gid=f"{quantity}-locus-{run}")
         ax.plot([0], [0], "+", color="black", markersize=10, mew=1.2, gid=f"{quantity}-origin")
         ax.axhline(0, color="0.85", lw=0.6, zorder=0)
@@ -973,8 +974,8 @@ def locus_figure(time: xr.Dataset, *, after: xr.Dataset | None = None, speed: in
         ax.set_title(f"{name} locus" + (" about the reference point" if quantity == "moment" else ""), fontsize=9)
         if after is not None:
             ax.legend(fontsize=7, frameon=False)
-    _suptitle(fig, f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over {_period_name(time)}, "
-                 "seen from the front (y right, z up; + the origin)", fontsize=11)
+    suptitle(fig, f"{time.attrs.get('engine', '')} at {rpm:.6g} rpm: transverse loads over {_period_name(time)}, "
+                "seen from the front (y right, z up; + the origin)", fontsize=11)
     return fig
 
 
@@ -1041,7 +1042,7 @@ def phasing_figure(scene: Scene) -> Figure:
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
-    t = _t_label(scene.rotation)
+    t = t_label(scene.rotation)
     fig = Figure(figsize=(6.4, 6.4), layout="constrained")
     ax = fig.add_subplot()
     ax.set_xlabel(f"t = {t}, direction of rotation: n²·U [kg m]", fontsize=8)
@@ -1056,8 +1057,8 @@ def phasing_figure(scene: Scene) -> Figure:
     handles = []
     for i, shaft in enumerate(elements):
         w = shaft.ratio**2 * np.array([u.unbalance * np.exp(1j * u.angle) for u in shaft.unbalances])
-        u, v = _page(w)
-        style = _series_style(i)
+        u, v = page_coordinates(w)
+        style = series_style(i)
         # Later elements are drawn thinner on top, so coincident arrows stay visible.
         ax.quiver(np.zeros(len(w)), np.zeros(len(w)), u, v, angles="xy", scale_units="xy", scale=1,
                   units="width", width=0.014 * max(0.3, 1 - 0.15 * i), headwidth=3.2, headlength=4.5,
@@ -1099,21 +1100,21 @@ def lever_figure(joints: xr.Dataset, *, speed: int = 0) -> Figure:
         [deg], one ``Line2D`` per joint labelled with its name (gid
         ``joint-<i>``). Right, the transmission angle γ [deg] of each lever
         (gid ``transmission-<i>``), the warning level
-        :data:`harmbal.model.linkage.TRANSMISSION_WARNING` as a horizontal line
+        :data:`harmbal.scene.elements.TRANSMISSION_WARNING` as a horizontal line
         (gid ``transmission-warning``) and
         the dataset's minimum as a marker (gid ``min-transmission-<i>``, at
         (θ, γ) in degrees); the note "no lever balancer" if there is none.
     """
     from matplotlib.figure import Figure
 
-    sel, rpm = _at_speed(joints, speed)
+    sel, rpm = at_speed(joints, speed)
     fig = Figure(figsize=(12.0, 5.2), layout="constrained")
     left, right = fig.subplots(1, 2)
     force = sel["joint_force"]
     angle, magnitude = _closed(sel["angle"].values, np.hypot(force.sel(axis="y"), force.sel(axis="z"))
                                .transpose("joint", "angle").values)
     for i, (name, values) in enumerate(zip(sel["joint"].values, magnitude)):
-        left.plot(angle, values, lw=1.1, label=str(name), gid=f"joint-{i}", **_series_style(i))
+        left.plot(angle, values, lw=1.1, label=str(name), gid=f"joint-{i}", **series_style(i))
     _angle_axis(left)
     left.set_ylabel("joint force |F| [N]", fontsize=8)
     left.set_title("Joint forces (first-named body on the second)", fontsize=9)
@@ -1130,8 +1131,8 @@ def lever_figure(joints: xr.Dataset, *, speed: int = 0) -> Figure:
         _note(right, "no lever balancer")
     else:
         _transmission(right, sel)
-    _suptitle(fig, f"{joints.attrs.get('engine', '')} at {rpm:.6g} rpm: joint forces and transmission angle",
-                 fontsize=11)
+    suptitle(fig, f"{joints.attrs.get('engine', '')} at {rpm:.6g} rpm: joint forces and transmission angle",
+                fontsize=11)
     return fig
 
 
@@ -1141,13 +1142,13 @@ def _transmission(ax: Axes, joints: xr.Dataset) -> None:
     warning = np.degrees(TRANSMISSION_WARNING)
     angle, gamma = _closed(joints["angle"].values, joints["transmission_angle"].transpose("lever", "angle").values)
     for i, lever in enumerate(joints["lever"].values):
-        style = _series_style(i)
+        style = series_style(i)
         low = float(np.degrees(joints["min_transmission_angle"].sel(lever=lever)))
         where = float(np.degrees(joints["min_transmission_theta"].sel(lever=lever)))
         ax.plot(angle, np.degrees(gamma[i]), lw=1.3, label=str(lever), gid=f"transmission-{i}", **style)
         ax.plot([where], [low], "v", color=style["color"], markersize=7, ls="none",
                 label=f"{lever}: min {low:.1f}° at θ = {where:.1f}°", gid=f"min-transmission-{i}")
-    ax.axhline(warning, color=_colour("vermillion"), lw=1.0, ls="--", label=f"warning below {warning:.0f}°",
+    ax.axhline(warning, color=named_colour("vermillion"), lw=1.0, ls="--", label=f"warning below {warning:.0f}°",
                gid="transmission-warning")
     ax.legend(fontsize=7, frameon=False, loc="lower right")
 
@@ -1190,7 +1191,7 @@ def pressure_figure(torque: xr.Dataset, *, cylinders: Sequence[str] | None = Non
     fig = Figure(figsize=(11.0, 4.6), layout="constrained")
     left, right = fig.subplots(1, 2)
     angle, pressure = _closed(torque["angle"].values, torque["pressure"].transpose("cylinder", "angle").values, span)
-    styles = {label: _series_style(i) for i, label in enumerate(chosen)}
+    styles = {label: series_style(i) for i, label in enumerate(chosen)}
     for label in chosen:
         left.plot(angle, pressure[labels.index(label)] / 1e5, lw=1.3, label=f"cylinder {label}",
                   gid=f"pressure-{label}", **styles[label])
@@ -1216,7 +1217,7 @@ def pressure_figure(torque: xr.Dataset, *, cylinders: Sequence[str] | None = Non
     right.set_title("p–V diagram (loop area: indicated work)", fontsize=9, pad=14)
     right.tick_params(labelsize=7)
     right.legend(fontsize=7, frameon=False, loc="upper right")
-    _suptitle(fig, f"{torque.attrs.get('engine', '')}: cylinder pressure (absolute)", fontsize=11)
+    suptitle(fig, f"{torque.attrs.get('engine', '')}: cylinder pressure (absolute)", fontsize=11)
     return fig
 
 
@@ -1242,7 +1243,7 @@ def torque_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     """
     from matplotlib.figure import Figure
 
-    sel, rpm = _at_speed(torque, speed)
+    sel, rpm = at_speed(torque, speed)
     span = _span(torque)
     fig = Figure(figsize=(9.0, 4.6), layout="constrained")
     ax = fig.add_subplot()
@@ -1252,16 +1253,16 @@ def torque_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
             ("mass", sel["mass_torque"].values, 1.1, "mass torque (taken by the moving parts)"),
             ("delivered", sel["torque"].values, 1.8, "delivered torque = gas − mass")):
         angle, closed = _closed(sel["angle"].values, values, span)
-        ax.plot(angle, closed, color=_colour(TORQUE_COLOURS[name]), lw=lw, label=label, gid=f"torque-{name}")
-    ax.axhline(mean, color=_colour(TORQUE_COLOURS["mean"]), lw=1.0, ls="--", label=f"mean {mean:.4g} N m",
+        ax.plot(angle, closed, color=named_colour(TORQUE_COLOURS[name]), lw=lw, label=label, gid=f"torque-{name}")
+    ax.axhline(mean, color=named_colour(TORQUE_COLOURS["mean"]), lw=1.0, ls="--", label=f"mean {mean:.4g} N m",
                gid="torque-mean")
     ax.axhline(0, color="0.85", lw=0.6, zorder=0)
     _angle_axis(ax, span)
     ax.set_ylabel("torque on the crankshaft T [N m]", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    _suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm (constant speed): torque over "
-                 f"{_period_name(torque)}", fontsize=11)
+    suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm (constant speed): torque over "
+                f"{_period_name(torque)}", fontsize=11)
     return fig
 
 
@@ -1298,7 +1299,7 @@ def torque_spectrum_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
-    sel, rpm = _at_speed(torque, speed)
+    sel, rpm = at_speed(torque, speed)
     sel = sel.isel(order=slice(1, None))  # the mean is the mean torque, drawn in torque_figure
     order = np.asarray(sel["order"].values, dtype=float)
     scale = torque_scale(torque)
@@ -1312,10 +1313,10 @@ def torque_spectrum_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
             ("gas", sel["gas_torque_order"].sum("cylinder").values, "gas torque, all cylinders"))):
         amplitude = np.abs(phasors)
         heights = np.where(is_balanced(amplitude, scale, BALANCED_RTOL), 0.0, amplitude)
-        bars = ax.bar(order + (j - 0.5) * width, heights, width, color=_colour(TORQUE_COLOURS[name]))
+        bars = ax.bar(order + (j - 0.5) * width, heights, width, color=named_colour(TORQUE_COLOURS[name]))
         for bar, k in zip(bars, order):
             bar.set_gid(f"torque-{name}-order{_order_label(k)}")
-        handles.append(Patch(color=_colour(TORQUE_COLOURS[name]), label=label))
+        handles.append(Patch(color=named_colour(TORQUE_COLOURS[name]), label=label))
     for k in order[np.asarray(sel["major_order"].values, dtype=bool)]:
         ax.axvspan(k - step / 2, k + step / 2, color="0.9", zorder=0, lw=0, gid=f"major-order{_order_label(k)}")
     handles.append(Patch(color="0.9", label="major order (all cylinders in phase)"))
@@ -1323,8 +1324,8 @@ def torque_spectrum_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     ax.set_ylabel("torque amplitude |T_k| (peak) [N m]", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.legend(handles=handles, fontsize=7, frameon=False, loc="upper right")
-    _suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: orders of the torque on the crankshaft "
-                 f"(mean {float(sel['mean_torque']):.4g} N m not drawn)", fontsize=11)
+    suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: orders of the torque on the crankshaft "
+                f"(mean {float(sel['mean_torque']):.4g} N m not drawn)", fontsize=11)
     return fig
 
 
@@ -1356,12 +1357,12 @@ def speed_fluctuation_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
 
     if "omega" not in torque:
         raise ValueError("the dataset has no speed fluctuation: the scene needs a [flywheel] table")
-    sel, rpm = _at_speed(torque, speed)
+    sel, rpm = at_speed(torque, speed)
     span = _span(torque)
     angle, omega = _closed(sel["angle"].values, sel["omega"].values, span)
     fig = Figure(figsize=(9.0, 3.8), layout="constrained")
     ax = fig.add_subplot()
-    ax.plot(angle, omega * 30 / np.pi, color=_colour("blue"), lw=1.5, label="crank speed", gid="speed")
+    ax.plot(angle, omega * 30 / np.pi, color=named_colour("blue"), lw=1.5, label="crank speed", gid="speed")
     ax.axhline(rpm, color="black", lw=1.0, ls="--", label=f"mean {rpm:.6g} rpm (the scene's speed)",
                gid="speed-mean")
     _angle_axis(ax, span)
@@ -1369,8 +1370,8 @@ def speed_fluctuation_figure(torque: xr.Dataset, *, speed: int = 0) -> Figure:
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     delta = float(sel["fluctuation_coefficient"])
-    _suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: speed fluctuation, δ = (ω_max − ω_min)/ω_mean "
-                 f"= {delta:.4g}, J₀ = {float(sel['flywheel_inertia']):.4g} kg m²", fontsize=11)
+    suptitle(fig, f"{torque.attrs.get('engine', '')} at {rpm:.6g} rpm: speed fluctuation, δ = (ω_max − ω_min)/ω_mean "
+                f"= {delta:.4g}, J₀ = {float(sel['flywheel_inertia']):.4g} kg m²", fontsize=11)
     return fig
 
 
@@ -1491,13 +1492,13 @@ def crank_pin_figure(loads: xr.Dataset, *, cylinders: Sequence[str] | None = Non
     """
     from matplotlib.figure import Figure
 
-    sel, rpm = _at_speed(loads, speed)
+    sel, rpm = at_speed(loads, speed)
     labels = list(cylinders) if cylinders is not None else [str(c) for c in sel["cylinder"].values]
     fig = Figure(figsize=(11.0, 5.6), layout="constrained")
     left, right = fig.subplots(1, 2)
     xs, ys = [], []
     for i, label in enumerate(labels):
-        style = _series_style(i)
+        style = series_style(i)
         pin = sel["crank_pin_force"].sel(cylinder=label).values / 1e3
         end = sel["big_end_force"].sel(cylinder=label).values / 1e3
         (radial, tangential), (along, across) = pin, end
@@ -1516,8 +1517,8 @@ def crank_pin_figure(loads: xr.Dataset, *, cylinders: Sequence[str] | None = Non
     _polar_axes(right, everything, everything, "across the rod [kN]", "along the rod (big end → small end) [kN]",
                 "Big-end bearing: force of the crank pin, rod frame")
     left.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    _suptitle(fig, f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: crank-pin and big-end polar diagrams over "
-                 f"{_period_name(loads)}", fontsize=11)
+    suptitle(fig, f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: crank-pin and big-end polar diagrams over "
+                f"{_period_name(loads)}", fontsize=11)
     return fig
 
 
@@ -1543,7 +1544,7 @@ def main_bearing_figure(loads: xr.Dataset, *, speed: int = 0) -> Figure:
     """
     from matplotlib.figure import Figure
 
-    sel, rpm = _at_speed(loads, speed)
+    sel, rpm = at_speed(loads, speed)
     labels = [str(b) for b in sel["bearing"].values]
     sense = 1 if loads.attrs.get("rotation") == "counterclockwise" else -1
     force = sel["main_bearing_force"].transpose("bearing", "axis", "angle").values / 1e3
@@ -1555,16 +1556,16 @@ def main_bearing_figure(loads: xr.Dataset, *, speed: int = 0) -> Figure:
     axes = np.atleast_1d(fig.subplots(rows, columns)).ravel()
     for i, label in enumerate(labels):
         ax = axes[i]
-        ax.plot(np.append(t[i], t[i][0]), np.append(z[i], z[i][0]), lw=1.1, color=_colour("blue"),
+        ax.plot(np.append(t[i], t[i][0]), np.append(z[i], z[i][0]), lw=1.1, color=named_colour("blue"),
                 gid=f"main-bearing-{label}")
         k = int(np.argmax(np.hypot(t[i], z[i])))
-        ax.plot([t[i][k]], [z[i][k]], "o", color=_colour("vermillion"), markersize=5,
+        ax.plot([t[i][k]], [z[i][k]], "o", color=named_colour("vermillion"), markersize=5,
                 gid=f"main-bearing-peak-{label}")
         x = float(sel["bearing_position"].sel(bearing=label)) * 1e3
-        _polar_axes(ax, t, z, f"F_t [kN] (t = {_t_label(loads.attrs.get('rotation', 'clockwise'))})", "F_z [kN]",
+        _polar_axes(ax, t, z, f"F_t [kN] (t = {t_label(loads.attrs.get('rotation', 'clockwise'))})", "F_z [kN]",
                     f"bearing {label} (x = {x:.6g} mm): peak {np.hypot(t[i], z[i])[k]:.4g} kN")
     for ax in axes[len(labels):]:
         ax.set_visible(False)
-    _suptitle(fig, f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: main-bearing loads\nover {_period_name(loads)} "
-                 "(statically determinate split)", fontsize=10)
+    suptitle(fig, f"{loads.attrs.get('engine', '')} at {rpm:.6g} rpm: main-bearing loads\nover {_period_name(loads)} "
+                "(statically determinate split)", fontsize=10)
     return fig

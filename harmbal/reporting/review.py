@@ -204,7 +204,7 @@ def remedy_text(loads: OrderLoads, found: list[Removal]) -> list[str]:
     quantity a line with the kind of element (as the verdicts name it), then
     one line per element starting with "– ": its speed, unbalance and
     angle at θ = 0 and plane(s); a free roll gets the line "roll: the mounts"."""
-    from .tables import _remedy
+    from .tables import balancer_remedy
 
     lines = []
     for quantity in ("force", "moment"):
@@ -213,7 +213,7 @@ def remedy_text(loads: OrderLoads, found: list[Removal]) -> list[str]:
             continue
         co = loads.values[f"{quantity}_co"] if "co" in mine else 0
         counter = loads.values[f"{quantity}_counter"] if "counter" in mine else 0
-        kind = _remedy(int(loads.order), co, counter)
+        kind = balancer_remedy(int(loads.order), co, counter)
         lines.append(f"{quantity}: {kind}" + ("" if quantity == "force" else ", as couples"))
         lines += [f"– {_size(mine[r])}" for r in ("co", "counter") if r in mine]
     if loads.classes["roll"] == FREE:

@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .plots import (AXIS_COLOURS, SPECTRUM_ROTATION_COLOURS, _at_speed, _bars, _colour, _page, _rotation_label,
-                    _series_style, _suptitle, _supxlabel, _t_label, bank_colours, fitted, phasor_diagram,
-                    select_speed, star_arms_drawn)
+from .plots import (AXIS_COLOURS, SPECTRUM_ROTATION_COLOURS, at_speed, bank_colours, fitted, named_colour,
+                    page_coordinates, phasor_bars, phasor_diagram, rotation_label, select_speed, series_style,
+                    star_arms_drawn, suptitle, supxlabel, t_label)
 from ..orders.spectrum import ZERO
 
 if TYPE_CHECKING:
@@ -76,7 +76,7 @@ def review_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: 
 
     from ..orders.spectrum import BALANCED_RTOL
 
-    sel, rpm = _at_speed(orders, speed)
+    sel, rpm = at_speed(orders, speed)
     sel = sel.sel(order=(sel["order"] > 0) & (sel["order"] <= (np.inf if max_order is None else max_order)))
     rtol = float(orders.attrs.get("balanced_rtol", BALANCED_RTOL))
     quantities = list(quantities)
@@ -89,17 +89,17 @@ def review_spectrum_figure(orders: xr.Dataset, *, log: bool = False, max_order: 
             roll = sel["moment"].sel(axis="x", drop=True).expand_dims(rotation=["roll"])
             phasors = xr.concat([phasors, roll.transpose(*phasors.dims)], "rotation")
             levels.append(float(sel["roll_negligible_level"]))
-        _bars(ax, phasors, "rotation", SPECTRUM_COLOURS, SPECTRUM_LABELS, float(sel[f"{quantity}_scale"]), rtol, log,
-              quantity, np.array(levels), collected=True)
+        phasor_bars(ax, phasors, "rotation", SPECTRUM_COLOURS, SPECTRUM_LABELS, float(sel[f"{quantity}_scale"]), rtol,
+                    log, quantity, np.array(levels), collected=True)
         unit = "N" if quantity == "force" else "N m"
         ax.set_ylabel(f"amplitude |P| [{unit}]", fontsize=8)
         ax.set_title("Force: co- and counter-rotating" if quantity == "force"
                      else "Moment: co- and counter-rotating, and roll", fontsize=9)
-    _suptitle(fig, f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the free force and moment",
-              11)
-    _supxlabel(fig, "peak amplitudes of the rotating phasors of the transverse vectors; moments about the reference "
-               "point; zero and negligible components drawn as 0" + (" (omitted: log scale)" if log else ""),
-               7, color="0.3")
+    suptitle(fig, f"{orders.attrs.get('engine', '')} at {rpm:.6g} rpm: order spectrum of the free force and moment",
+             11)
+    supxlabel(fig, "peak amplitudes of the rotating phasors of the transverse vectors; moments about the reference "
+              "point; zero and negligible components drawn as 0" + (" (omitted: log scale)" if log else ""),
+              7, color="0.3")
     return fig
 
 
@@ -196,12 +196,12 @@ def review_stars_figure(stars: xr.Dataset, orders: Sequence[int] | None = None,
     for i, (quantity, k) in enumerate(diagrams):
         phasor_diagram(sel, k, quantity, fig.add_subplot(grid[1 + i // COLUMNS, i % COLUMNS]))
     engine = stars.attrs.get("engine", "")
-    view = "front" if _rotation_label(stars) == "+y" else "rear"
-    _suptitle(fig, f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", 12)
-    _supxlabel(fig, f"+z up, angles clockwise in the direction of rotation, t = {_rotation_label(stars)} to the right "
-               f"(the engine seen from the {view}; {stars.attrs.get('rotation', 'clockwise')} rotation); moments about "
-               "the reference point; cs = crankshaft unbalances; firing order "
-               f"{stars.attrs.get('firing_order', '?')}", 7, color="0.3")
+    view = "front" if rotation_label(stars) == "+y" else "rear"
+    suptitle(fig, f"{engine} at {rpm:.6g} rpm: crank stars and free force and moment phasors", 12)
+    supxlabel(fig, f"+z up, angles clockwise in the direction of rotation, t = {rotation_label(stars)} to the right "
+              f"(the engine seen from the {view}; {stars.attrs.get('rotation', 'clockwise')} rotation); moments about "
+              "the reference point; cs = crankshaft unbalances; firing order "
+              f"{stars.attrs.get('firing_order', '?')}", 7, color="0.3")
     return fig
 
 
@@ -233,7 +233,7 @@ def _star_strip(ax: Axes, stars: xr.Dataset, groups: list[list[int]]) -> None:
     ax.set_xlim(-1.8, STAR_PITCH * (count - 1) + 1.8)
     ax.set_ylim(-3.8 * (rows - 1) - 2.0, 2.3)
     ax.axis("off")
-    ax.set_title(f"Crank stars (arms at k·φ from +z, t = {_rotation_label(stars)} to the right)", fontsize=9)
+    ax.set_title(f"Crank stars (arms at k·φ from +z, t = {rotation_label(stars)} to the right)", fontsize=9)
     if multibank:
         handles = [Line2D([], [], color=colours[j], lw=2.2, label=f"bank {np.degrees(b):+.4g}°")
                    for j, b in enumerate(np.asarray(stars["bank"].values, dtype=float))]
@@ -280,22 +280,22 @@ def mechanism_figure(scene: Scene, angles: Sequence[float] = MECHANISM_ANGLES) -
         ax.plot([0], [0], "o", color="0.2", markersize=4, zorder=6)
         ax.set_title(f"θ = {np.degrees(angle):g}°", fontsize=9)
         ax.tick_params(labelsize=7)
-        ax.set_xlabel(f"t = {_t_label(scene.rotation)} [mm]", fontsize=8)
+        ax.set_xlabel(f"t = {t_label(scene.rotation)} [mm]", fontsize=8)
     axes[0].set_ylabel("z [mm]", fontsize=8)
-    x, y = _page(np.concatenate(points) * 1e3)
+    x, y = page_coordinates(np.concatenate(points) * 1e3)
     half = 0.55 * max(np.ptp(x), np.ptp(y), 1.0)
     for ax in axes:
         ax.set_aspect("equal", adjustable="box")
         ax.set_xlim((x.max() + x.min()) / 2 - half, (x.max() + x.min()) / 2 + half)
         ax.set_ylim((y.max() + y.min()) / 2 - half, (y.max() + y.min()) / 2 + half)
-    _suptitle(fig, f"{scene.name}: the mechanism at {len(theta)} crank angles (+z up, the direction of rotation to "
-              "the right)", 11)
+    suptitle(fig, f"{scene.name}: the mechanism at {len(theta)} crank angles (+z up, the direction of rotation to "
+             "the right)", 11)
     return fig
 
 
 def _line(ax: Axes, a: complex, b: complex, gid: str, **style) -> None:
     """A segment between two points of the w-plane [m], drawn in mm."""
-    x, y = _page(np.array([a, b]) * 1e3)
+    x, y = page_coordinates(np.array([a, b]) * 1e3)
     ax.plot(x, y, gid=gid, solid_capstyle="round", **style)
 
 
@@ -311,9 +311,10 @@ def _draw_crank_trains(ax: Axes, scene: Scene, theta: float, i: int) -> list[np.
         reach = cyl.crank_radius + cyl.rod_length * 1.25
         _line(ax, 0j, reach * axis, f"axis-{cyl.label}-{i}", color="0.8", lw=0.8, ls="--", zorder=1)
         _line(ax, 0j, big, f"crank-{cyl.label}-{i}", color="0.25", lw=2.6, zorder=4)
-        _line(ax, big, small, f"rod-{cyl.label}-{i}", color=_colour("blue"), lw=1.8, zorder=3)
-        px, py = _page(np.array([small]) * 1e3)
-        ax.plot(px, py, "s", color=_colour("sky_blue"), markersize=9, markeredgecolor=_colour("blue"), zorder=5)
+        _line(ax, big, small, f"rod-{cyl.label}-{i}", color=named_colour("blue"), lw=1.8, zorder=3)
+        px, py = page_coordinates(np.array([small]) * 1e3)
+        ax.plot(px, py, "s", color=named_colour("sky_blue"), markersize=9, markeredgecolor=named_colour("blue"),
+                zorder=5)
         points.append(np.array([big, small, reach * axis]))
     return points
 
@@ -326,9 +327,9 @@ def _draw_shafts(ax: Axes, scene: Scene, theta: float, i: int) -> list[np.ndarra
         size = max(u.unbalance for u in shaft.unbalances)
         angle = shaft.unbalances[0].angle + shaft.ratio * theta
         arm = 0.02 * np.exp(1j * angle)
-        style = _series_style(n + 1)
+        style = series_style(n + 1)
         _line(ax, centre, centre + arm, f"shaft-{shaft.label}-{i}", color=style["color"], lw=2.0, zorder=4)
-        cx, cy = _page(np.array([centre]) * 1e3)
+        cx, cy = page_coordinates(np.array([centre]) * 1e3)
         ax.plot(cx, cy, "o", color=style["color"], markersize=4 + 4 * (size > 0), zorder=5)
         points.append(np.array([centre + arm, centre - arm]))
     return points
@@ -345,14 +346,14 @@ def _draw_levers(ax: Axes, scene: Scene, theta: float, i: int) -> list[np.ndarra
         along = (c - b) / abs(c - b)
         cg = b + complex(*lever.coupler.cg) * along  # the weight's frame: x along B→C, y 90° ahead
         _line(ax, 0j, c, f"lever-{lever.label}-crank-{i}", color="0.45", lw=2.0, zorder=4)
-        _line(ax, b, c, f"lever-{lever.label}-coupler-{i}", color=_colour("vermillion"), lw=2.4, zorder=4)
-        _line(ax, pivot, b, f"lever-{lever.label}-rocker-{i}", color=_colour("bluish_green"), lw=2.0, zorder=4)
-        for point, marker, colour, size in ((pivot, "^", "0.2", 8), (cg, "o", _colour("vermillion"), 9)):
-            px, py = _page(np.array([point]) * 1e3)
+        _line(ax, b, c, f"lever-{lever.label}-coupler-{i}", color=named_colour("vermillion"), lw=2.4, zorder=4)
+        _line(ax, pivot, b, f"lever-{lever.label}-rocker-{i}", color=named_colour("bluish_green"), lw=2.0, zorder=4)
+        for point, marker, colour, size in ((pivot, "^", "0.2", 8), (cg, "o", named_colour("vermillion"), 9)):
+            px, py = page_coordinates(np.array([point]) * 1e3)
             ax.plot(px, py, marker, color=colour, markersize=size, zorder=6)
         if i == 0:  # name the joints once, as docs/lever.md does
             for point, name in ((pivot, "A"), (b, "B"), (c, "C")):
-                px, py = _page(np.array([point]) * 1e3)
+                px, py = page_coordinates(np.array([point]) * 1e3)
                 ax.annotate(name, (px[0], py[0]), xytext=(4, 4), textcoords="offset points", fontsize=8,
                             color="0.2", zorder=7)
         points.append(np.array([c, b, pivot, cg]))

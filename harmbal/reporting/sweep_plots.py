@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .plots import OKABE_ITO, _suptitle, fitted
-from .sweeps import _at_top_speed, _rounded, _shown_units
+from .plots import OKABE_ITO, fitted, suptitle
+from .sweeps import at_top_speed, rounded, shown_units
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -30,14 +30,14 @@ _NAMES = {"force": "free force", "moment": "free moment", "residual_force": "fre
 
 
 def _label(ds, key: str) -> str:
-    units, _ = _shown_units(ds, key)
+    units, _ = shown_units(ds, key)
     return f"{key} [{units}]" if units else key
 
 
 def _shown(ds, key: str, values=None) -> np.ndarray:
     """A key's values (default its coordinate in ``ds``) in the units they
     were typed in (``display_units`` of the key in ``ds``)."""
-    return (ds[key].values if values is None else np.asarray(values)) / _shown_units(ds, key)[1]
+    return (ds[key].values if values is None else np.asarray(values)) / shown_units(ds, key)[1]
 
 
 def _group(name: str) -> str:
@@ -47,7 +47,7 @@ def _group(name: str) -> str:
 def _amplitude(ds, name: str):
     """``{name}_amplitude`` with its round-off (zero class) drawn as 0."""
     amplitude = ds[f"{name}_amplitude"]
-    return amplitude.copy(data=_rounded(ds, amplitude.values, _group(name)))
+    return amplitude.copy(data=rounded(ds, amplitude.values, _group(name)))
 
 
 def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, order: int = 1,
@@ -87,7 +87,7 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
     if name not in _NAMES or f"{name}_amplitude" not in ds:
         raise ValueError(f"name must be one of {', '.join(n for n in _NAMES if f'{n}_amplitude' in ds)}, "
                          f"not {name!r}")
-    ds, rpm = _at_top_speed(ds)
+    ds, rpm = at_top_speed(ds)
     amplitude = _amplitude(ds, name)
     units, what = _UNITS[_group(name)], _NAMES[name]
     if name in _UNITS and f"residual_{name}_amplitude" in ds:
@@ -151,7 +151,7 @@ def monte_carlo_figure(mc: xr.Dataset, *, order: int = 1, name: str = "force") -
 
     if name not in _UNITS:
         raise ValueError(f"name must be 'force' or 'moment', not {name!r}")
-    mc, rpm = _at_top_speed(mc)
+    mc, rpm = at_top_speed(mc)
     values = np.sort(_amplitude(mc, name).sel(order=order).values)  # round-off drawn as 0
     units = _UNITS[name]
     fig = Figure(figsize=(11, 3.8), layout="constrained")
@@ -172,8 +172,8 @@ def monte_carlo_figure(mc: xr.Dataset, *, order: int = 1, name: str = "force") -
     bars.barh([p for _, p in ranked], [v for v, _ in ranked], color=OKABE_ITO["bluish_green"])
     bars.set_xlim(0, 1)
     bars.set_xlabel(f"share of the variance (R² {float(mc[f'{name}_sensitivity_r2'].sel(order=order)):.3g})")
-    _suptitle(fig, f"{mc.attrs.get('engine', '')}: order {order} {name} residual over {values.size} samples at "
-              f"{rpm:.6g} rpm", 10)
+    suptitle(fig, f"{mc.attrs.get('engine', '')}: order {order} {name} residual over {values.size} samples at "
+             f"{rpm:.6g} rpm", 10)
     return fig
 
 

@@ -41,7 +41,7 @@ def _dim(ds) -> str:
     return "sample" if "sample" in ds.dims else "variant"
 
 
-def _at_top_speed(ds):
+def at_top_speed(ds):
     """The Dataset at its highest speed (where inertial residuals are largest) and that speed in rpm."""
     if "speed" in ds.dims:
         i = int(np.argmax(ds["speed"].values))
@@ -69,7 +69,7 @@ def _classes(ds, values, group: str) -> np.ndarray:
     return classify(values, float(scale), float(ds[f"{group}_negligible_level"]))
 
 
-def _rounded(ds, values, group: str) -> np.ndarray:
+def rounded(ds, values, group: str) -> np.ndarray:
     """``values`` with the round-off (zero class) set to 0."""
     values = np.asarray(values, dtype=float)
     return np.where(_classes(ds, values, group) == ZERO, 0.0, values)
@@ -93,7 +93,7 @@ def _legend(ds) -> str | None:
 # -- keys -----------------------------------------------------------------------------------------
 
 
-def _shown_units(ds, key: str) -> tuple[str, float]:
+def shown_units(ds, key: str) -> tuple[str, float]:
     """The units ``key``'s values are shown in ("" for a dimensionless or
     unknown one) and the SI value of one of them."""
     from ..studies.sweep import display_factor
@@ -103,13 +103,13 @@ def _shown_units(ds, key: str) -> tuple[str, float]:
 
 
 def _key_value(ds, key: str, i: int) -> str:
-    units, factor = _shown_units(ds, key)
+    units, factor = shown_units(ds, key)
     return f"{key} = {float(ds[key].values[i]) / factor:.6g}" + (f" {units}" if units else "")
 
 
 def _key_range(ds, key: str, count: int | None) -> str:
     """``key = low–high units (count values, kind)``."""
-    units, factor = _shown_units(ds, key)
+    units, factor = shown_units(ds, key)
     values = ds[key].values
     low, high = float(values.min()) / factor, float(values.max()) / factor
     span = f"{low:.6g}" if low == high else (f"{low:.6g}–{high:.6g}" if low >= 0 else f"{low:.6g} to {high:.6g}")
@@ -232,8 +232,8 @@ def _ranking(ds, dim: str, orders: list[int]) -> list[str]:
     parts = {(r.order, r.label): r for r in _after_design_rows(ds, dim, orders)} if design else None
     lines = []
     for group, units in _UNITS.items():
-        amplitude = _rounded(ds, ds[f"{'residual_' if design else ''}{group}_amplitude"].transpose(dim, "order").values,
-                             group)
+        amplitude = rounded(ds, ds[f"{'residual_' if design else ''}{group}_amplitude"].transpose(dim, "order").values,
+                            group)
         total = amplitude.sum(axis=1)
         what = f"{group} after the design" if design else group
         if not total.max() > 0:
@@ -260,7 +260,7 @@ def _variant_loads(ds, dim: str, orders: list[int], group: str, amplitude: np.nd
 
 
 def _statistics(ds, row: _Row, extra: bool) -> str:
-    values = _rounded(ds, row.values, row.group)
+    values = rounded(ds, row.values, row.group)
     cells = [_number(ds, float(v), row.group) for v in np.percentile(values, PERCENTILES)]
     if extra:  # the mean is a load; the standard deviation a spread, not classed
         spread = values.std(ddof=1) if values.size > 1 else 0.0
@@ -335,7 +335,7 @@ def _peak_lines(ds) -> list[str]:
         return []
     lines = [""]
     for name, units in _UNITS.items():
-        q = np.percentile(_rounded(ds, ds[f"peak_{name}"].values, name), PERCENTILES)
+        q = np.percentile(rounded(ds, ds[f"peak_{name}"].values, name), PERCENTILES)
         lines.append(f"peak {name} over a revolution [{units}], percentiles {', '.join(map(str, PERCENTILES))} %: "
                      + ", ".join(_number(ds, float(v), name) for v in q))
     return lines
@@ -364,7 +364,7 @@ def sweep_table(ds) -> str:
         as 0, a negligible load as ~0 (the legend gives the levels).
     """
     dim = _dim(ds)
-    ds, rpm = _at_top_speed(table_inputs(ds).compute())  # one pass over a chunked sweep
+    ds, rpm = at_top_speed(table_inputs(ds).compute())  # one pass over a chunked sweep
     orders = [int(k) for k in ds["order"].values]
     lines = _header(ds, dim, rpm) + _ranking(ds, dim, orders) + [""] + _percentile_table(ds, dim, orders)
     if "design_residual" in ds:

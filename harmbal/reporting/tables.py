@@ -14,7 +14,7 @@ def _at_speeds(ds, lines: list[str]):
     """The Dataset at each speed to print, with its rpm; notes in ``lines``
     the speeds a long sweep leaves out (all but the lowest and the highest)."""
     rpm = np.atleast_1d(ds["rpm"].values)
-    for i in _printed_speeds(rpm, lines):
+    for i in printed_speeds(rpm, lines):
         yield (ds.isel(speed=i) if "speed" in ds.dims else ds), rpm[i]
 
 
@@ -79,7 +79,7 @@ def torque_table(torque) -> str:
     speeds = np.atleast_1d(torque["speed"].values)
     gas = torque.gas_torque_order.sum("cylinder").values
     scale = float(np.abs(gas).max())
-    for i in _printed_speeds(speeds * 30 / np.pi, lines):
+    for i in printed_speeds(speeds * 30 / np.pi, lines):
         total = torque.torque_order.isel(speed=i) if "speed" in torque.torque_order.dims else torque.torque_order
         lines += ["", f"Speed {speeds[i] * 30 / np.pi:.6g} rpm ({speeds[i]:.6g} rad/s)",
                   f"  {'order':>7}{'total [N m]':>19}{'gas [N m]':>19}"]
@@ -113,7 +113,7 @@ def order_table_of_arrays(attrs: dict, speeds, at_speed) -> str:
     ]
     speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
     rpm = speeds * 30 / np.pi
-    for i in _printed_speeds(rpm, lines):
+    for i in printed_speeds(rpm, lines):
         sel = at_speed(i)
         classes = cell_classes(sel, attrs)
         lines.append("")
@@ -164,7 +164,7 @@ def cell_classes(sel: dict, attrs: dict) -> dict:
     return out
 
 
-def _printed_speeds(rpm: np.ndarray, lines: list[str]):
+def printed_speeds(rpm: np.ndarray, lines: list[str]):
     """Indices of the speeds to print; notes in ``lines`` the speeds a long
     sweep leaves out (all but the lowest and the highest)."""
     if rpm.size <= PRINTED_SPEEDS:
@@ -182,7 +182,7 @@ def _arms(angles: np.ndarray) -> str:
     return ", ".join(f"{v:g}" + (f" ×{c}" if c > 1 else "") for v, c in zip(values, counts))
 
 
-def _remedy(order: int, co: complex, counter: complex) -> str:
+def balancer_remedy(order: int, co: complex, counter: complex) -> str:
     """The balancer that makes this pair of rotating phasors (0 = not free):
     crank counterweights turn at +1×, balance shafts at ±k×, and a
     Lanchester pair at ±k× makes a standing vector (|co| = |counter|)."""
@@ -206,7 +206,7 @@ def verdict(stars, order: int) -> str:
         co, counter = stars[f"{name}_rotating"].sel(order=order).values * stars[f"{name}_free"].sel(order=order).values
         if co or counter:
             which = "co+counter" if co and counter else ("co" if co else "counter")
-            parts.append(f"{letter} {which} ({_remedy(order, co, counter)})")
+            parts.append(f"{letter} {which} ({balancer_remedy(order, co, counter)})")
     if bool(stars["roll_free"].sel(order=order)):
         parts.append("roll")
     if parts:
@@ -537,7 +537,7 @@ def power_and_fluctuation_table(torque) -> str:
             target = float(needed.attrs["fluctuation_target"])
             header += f"{f'J₀ for δ = {target:g} [kg m²]':>28}"
             columns.append((np.atleast_1d(needed.values), "{:>28.5g}"))
-    shown = _printed_speeds(rpm, [])
+    shown = printed_speeds(rpm, [])
     if len(shown) < rpm.size:
         lines.append(f"  {rpm.size} speeds: the lowest and the highest shown; every speed is in /torque")
     rows = [f"  {rpm[i]:>12.6g}{mean * speeds[i] / 1e3:>14.5g}" + "".join(fmt.format(v[i]) for v, fmt in columns)

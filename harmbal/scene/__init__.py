@@ -1,4 +1,4 @@
-"""Stage 1, the scene: what the user describes, read from TOML, validated and
+"""The scene stage: what the user describes, read from TOML, validated and
 converted to SI once (units, schema, the readers of each table, balancer
 elements, design/verify requests, firing order, the scene writer)."""
 

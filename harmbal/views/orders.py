@@ -9,7 +9,7 @@ from ..model.sampling import AccuracyWarning
 from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
 from ..orders.spectrum import (BALANCED_RTOL, CLASS_ATTRS, ROTATION, ZERO_RTOL, aliasing_estimate, classify,
-                               negligible_level, phasors, rotating_split)
+                               negligible_level, phasors, transverse_split)
 from ..scene.schema import DEFAULT_NEGLIGIBLE
 from .time import gas_phasors
 
@@ -128,7 +128,7 @@ def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dic
     values = {}
     for name, spectrum in (("force", force), ("moment", moment)):
         kept = spectrum[..., : revolutions * kmax + 1]
-        co, counter = rotating_split(kept[..., 2, :], -sense * kept[..., 1, :])
+        co, counter = transverse_split(kept, sense)
         values[name] = np.swapaxes(kept, -1, -2)
         values[f"{name}_rotating"] = np.stack([co, counter], axis=-1)
         values[f"aliasing_error_{name}"] = tails[name]

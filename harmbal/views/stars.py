@@ -7,7 +7,7 @@ import numpy as np
 from ..labelled import AXES, Speeds, dataset, with_speed_indexes
 from ..model.evaluate import evaluate
 from ..orders.phasors import OrderPhasors, order_phasors
-from ..orders.spectrum import BALANCED_RTOL, FREE, ROTATION, ZERO_RTOL, rotating_split, zero_below_round_off
+from ..orders.spectrum import BALANCED_RTOL, FREE, ROTATION, ZERO_RTOL, transverse_split, zero_below_round_off
 from ..scene.schema import DEFAULT_NEGLIGIBLE
 from ..orders.stars import crank_stars
 from ..scene.firing import Firing, cylinder_firing
@@ -97,10 +97,9 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
     var, coords = speeds.variable, speeds.coords()
 
     def rotating(per_axis):
-        return np.stack(rotating_split(per_axis[..., 2, :], -sense * per_axis[..., 1, :]), axis=-1)
+        return np.stack(transverse_split(per_axis, sense), axis=-1)
 
-    force_scale = float(p.peak_force.sum() + p.crankshaft_peak_force)
-    moment_scale = float(p.peak_moment.sum() + p.crankshaft_peak_moment)
+    force_scale, moment_scale = p.force_scale, p.moment_scale
     # In a tree the free vectors are /orders' (one set of totals judged once); alone, the order domain's.
     force, moment = (p.force, p.moment) if totals is None else totals
     force_rot, moment_rot = rotating(force), rotating(moment)

@@ -7,16 +7,22 @@ import json
 import numpy as np
 
 from ._version import __version__, source_revision
-from .labelled import CONVENTIONS, Speeds, dataset, speed_independent_values, tree, unit_speed_values
+from .labelled import (
+    CONVENTIONS,
+    Speeds,
+    dataset,
+    speed_independent_values,
+    tree,
+    unit_speed_values,
+)
 from .model.budget import check_budget
-from .model.evaluate import evaluate, time_domain_evaluation
+from .model.evaluate import evaluate
 from .model.gas import gas_loads
-from .model.sampling import simulates_gas
-from .orders.phasors import order_phasors
 from .scene import Scene
+from .views.evaluation import Evaluation, evaluation
 from .views.orders import orders_dataset, unit_orders
 from .views.stars import placement, stars_dataset
-from .views.time import attributes, body_aliasing, body_moments, cycle_loads, gas_phasors, time_dataset
+from .views.time import attributes, time_dataset
 from .views.torque import torque_dataset
 
 
@@ -94,31 +100,23 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     check_budget(scene, "analyse")  # refused before anything is allocated if over the memory or time budget
     if "speed_fluctuation" in scene.model.effects:
         return _fluctuating(scene, per_cylinder, backend)
-    unit, samples = time_domain_evaluation(scene)  # with gas, the inertia on a grid of its own (see there)
-    gas = gas_loads(scene, samples) if simulates_gas(scene) else None
-    moments = body_moments(unit)
-    aliasing = body_aliasing(unit, backend, moments)
-    # The gas torque's phasors and tail, once for /time, /orders and /torque.
-    gas_spectrum, gas_tail = (None, None) if gas is None else gas_phasors(gas, scene.sampling.max_order, backend)
+    ev = evaluation(scene, backend=backend)  # with gas, the inertia on a grid of its own (see there)
     # What the views read of the scene besides the evaluation: speeds, shared attributes, the cylinders' placement.
-    speeds, attrs = Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas)
-    labels, throw, bank, firing = placement(scene)
-    # The inertia's totals and mass torque on the gas cycle's grid, once for /time and /torque.
-    cycle = None if gas is None else cycle_loads(unit, gas)
-    time = time_dataset(unit, speeds, attrs, labels=labels if per_cylinder else None, moments=moments,
-                        aliasing=aliasing, gas=gas, gas_tail=gas_tail, cycle=cycle, backend=backend)
-    values, order_attrs, gas_values = unit_orders(unit, aliasing, attrs, backend, gas, gas_tail, gas_spectrum)
-    orders = orders_dataset(values, order_attrs, speeds, speeds.coords(), constants=gas_values)
-    whole = slice(None, None, 1 if gas is None else gas.revolutions)  # the stars: inertia, whole orders
-    p = order_phasors(unit, backend)
-    star_attrs = attrs if gas is None else attributes(scene, p.samples_per_rev)  # the stars' grid: the inertia's
-    groups = {"scene": scene_dataset(scene), "time": time, "orders": orders,
-              "stars": stars_dataset(p, speeds, star_attrs, labels, throw, bank, firing,
-                                     totals=(values["force"][whole].T, values["moment"][whole].T))}
-    if gas is not None:
-        groups["torque"] = torque_dataset(unit, gas, speeds, attrs, labels, _crank_radius(scene),
-                                          flywheel=scene.flywheel, backend=backend, spectrum=gas_spectrum,
-                                          mass_torque=cycle[2])
+    speeds, attrs, place = Speeds(scene.speeds), attributes(scene, ev.unit.samples_per_rev, ev.gas), placement(scene)
+    values, order_attrs, gas_values = unit_orders(ev, attrs)
+    # The stars: the inertia's whole orders, on its own grid; their free vectors are /orders'.
+    whole = slice(None, None, 1 if ev.gas is None else ev.gas.revolutions)
+    totals = (values["force"][whole].T, values["moment"][whole].T)
+    groups = {
+        "scene": scene_dataset(scene),
+        "time": time_dataset(ev, speeds, attrs, labels=place.labels if per_cylinder else None),
+        "orders": orders_dataset(values, order_attrs, speeds, speeds.coords(), constants=gas_values),
+        "stars": stars_dataset(ev, speeds, attrs if ev.gas is None else attributes(scene, ev.unit.samples_per_rev),
+                               place, totals=totals),
+    }
+    if ev.gas is not None:
+        groups["torque"] = torque_dataset(ev, speeds, attrs, place.labels, _crank_radius(scene),
+                                          flywheel=scene.flywheel)
     return _tree(scene, groups, backend)
 
 
@@ -139,12 +137,11 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
     time = fluctuating_time_dataset(scene, backend=backend)
     steady = scene.with_effects(scene.model.effects - {"speed_fluctuation"})
     unit = evaluate(steady)
-    gas = gas_loads(steady, unit.samples_per_rev)
-    p = order_phasors(unit, backend)
-    speeds, (labels, throw, bank, firing) = Speeds(scene.speeds), placement(scene)
-    stars = stars_dataset(p, speeds, attributes(steady, p.samples_per_rev), labels, throw, bank, firing)
-    torque = torque_dataset(unit, gas, speeds, attributes(scene, unit.samples_per_rev, gas), labels,
-                            _crank_radius(scene), flywheel=scene.flywheel, backend=backend)
+    ev = Evaluation(unit, gas_loads(steady, unit.samples_per_rev), backend)
+    speeds, place = Speeds(scene.speeds), placement(scene)
+    stars = stars_dataset(ev, speeds, attributes(steady, unit.samples_per_rev), place)
+    torque = torque_dataset(ev, speeds, attributes(scene, unit.samples_per_rev, ev.gas), place.labels,
+                            _crank_radius(scene), flywheel=scene.flywheel)
     return _tree(scene, {"scene": scene_dataset(scene), "time": time, "orders": order_spectrum(time, backend=backend),
                          "stars": stars, "torque": torque}, backend)
 

@@ -64,3 +64,26 @@ def test_two_point_rod_has_no_rod_inertia_term(monkeypatch, base_scene):
     base_scene["model"] = {"rod": "two_point"}
     _forbid(monkeypatch, loads, "rod_inertia")
     hb.simulate(hb.load_scene(base_scene))
+
+
+def test_each_derived_quantity_of_an_evaluation_is_computed_once(monkeypatch, base_scene):
+    # analyse builds every view from one Evaluation: a derived quantity several views read (the bodies'
+    # aliasing: /time and /orders; the order phasors: /stars) is computed on first use and then read.
+    from harmbal.views import evaluation as module
+
+    scene = hb.load_scene(base_scene)
+    calls = {"body_aliasing": 0, "order_phasors": 0}
+    for name in calls:
+        original = getattr(module, name)
+
+        def counted(*args, _original=original, _name=name, **kwargs):
+            calls[_name] += 1
+            return _original(*args, **kwargs)
+
+        monkeypatch.setattr(module, name, counted)
+    hb.analyse(scene)
+    assert calls == {"body_aliasing": 1, "order_phasors": 1}
+    ev = module.evaluation(scene)
+    assert ev.aliasing is ev.aliasing and ev.phasors is ev.phasors and ev.gas is None
+    with pytest.raises(ValueError, match="no gas"):
+        _ = ev.cycle

@@ -8,8 +8,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..labelled import Speeds, dataset
-from ..model.bearings import (affine_extremes, crank_train, fastener_load, main_bearings, ramp_torque,
-                              shaft_bearings, to_w)
+from ..model.bearings import (
+    affine_extremes,
+    crank_train,
+    fastener_load,
+    main_bearings,
+    ramp_torque,
+    shaft_bearings,
+    to_w,
+)
 from ..model.budget import check_budget
 from ..model.gas import gas_loads
 from ..model.linkage import to_engine
@@ -88,8 +95,6 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     revolutions = gas.revolutions if gas is not None else 1
     train = crank_train(scene, theta, None if gas is None else gas.force)
     speeds = Speeds(scene.speeds)
-    w2 = np.atleast_1d(speeds.w2)
-    sense = scene.sense
     coords = speeds.coords()
     coords.update({
         "angle": ("angle", theta, {"units": "rad", "long_name": "crank angle θ"}),
@@ -99,32 +104,61 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
                                                                       "(direction of rotation)"}),
         "axis": ("axis", ["y", "z"], {"long_name": "engine axis"}),
     })
+    data = _crank_train_loads(train, np.array([c.bank for c in scene.cylinders]), speeds, theta)
+    if gas is not None:
+        data["gas_force"] = (("cylinder", "angle"), gas.force,
+                             {"units": "N", "long_name": "gas force on the piston, towards the crank"})
+    request = scene.loads
+    if request is not None and request.main_bearings:
+        orders = np.arange(revolutions * scene.sampling.max_order + 1) / revolutions
+        data.update(_main_bearing_loads(train, request, [c.x for c in scene.cylinders], scene.sense, speeds, theta,
+                                        orders, coords, backend))
+    if request is not None and request.elements:
+        top = request.max_speed if request.max_speed is not None else max(scene.speeds)
+        data.update(_elements(request, scene.shafts, scene.sense, theta, speeds, top, coords))
+    attrs = attributes(scene, n)
+    attrs.update({"title": f"harmbal loads: {scene.name}", "revolutions": revolutions,
+                  "gas": "yes" if gas is not None else "no",
+                  "harmbal_conventions": "constant crank speed; forces in the named frames (see each variable); "
+                                         "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); docs/loads.md"})
+    return dataset(data, coords, attrs)
+
+
+def _affine(name: str, dims: tuple, unit: np.ndarray, constant: np.ndarray, attrs: dict, speeds: Speeds,
+            theta: np.ndarray, peaks: bool = True) -> dict:
+    """The variable ω²·unit + constant and, if ``peaks``, its peak, peak angle
+    and mean magnitude per speed (over the angle ``theta``), as Dataset entries."""
+    # Without gas or static loads the variable is a pure ω² product, archived as one like /time's.
+    data = {name: speeds.variable(dims, unit, attrs, constant=constant if np.any(constant) else None)}
+    if not peaks:
+        return data
+    # Magnitudes of vector loads: the component axis is the one before the angle.
+    vector = len(dims) > 2
+    u = unit[..., 0, :] + 1j * unit[..., 1, :] if vector else unit
+    c = constant[..., 0, :] + 1j * constant[..., 1, :] if vector else constant
+    peak, index, mean = affine_extremes(np.atleast_1d(speeds.w2), u, c)
+    keep = speeds.lead + (dims[:-2] if vector else dims[:-1])
+    squeeze = (lambda a: a) if speeds.several else (lambda a: a[0])
+    units = attrs["units"]
+    data[f"{name}_peak"] = (keep, squeeze(peak),
+                            {"units": units, "long_name": f"largest magnitude of {name} over the angle"})
+    data[f"{name}_peak_angle"] = (keep, squeeze(theta[index]),
+                                  {"units": "rad", "long_name": f"crank angle θ of the peak of {name}"})
+    data[f"{name}_mean"] = (keep, squeeze(mean),
+                            {"units": units, "long_name": f"mean magnitude of {name} over the angle"})
+    return data
+
+
+def _crank_train_loads(train, bank: np.ndarray, speeds: Speeds, theta: np.ndarray) -> dict:
+    """The crank train's joint loads per cylinder (:func:`harmbal.model.bearings.crank_train`'s
+    ``train``, the cylinders' ``bank`` angles [rad]) in the cylinder's, the rod's and the crank's frames."""
     data: dict = {}
-    lead = speeds.lead
 
     def affine(name, dims, unit, constant, attrs, peaks=True):
-        """The variable ω²·unit + constant, and its peak, peak angle and mean magnitude per speed."""
-        # Without gas or static loads the variable is a pure ω² product, archived as one like /time's.
-        data[name] = speeds.variable(dims, unit, attrs, constant=constant if np.any(constant) else None)
-        if not peaks:
-            return
-        # Magnitudes of vector loads: the component axis is the one before the angle.
-        vector = len(dims) > 2
-        u = unit[..., 0, :] + 1j * unit[..., 1, :] if vector else unit
-        c = constant[..., 0, :] + 1j * constant[..., 1, :] if vector else constant
-        peak, index, mean = affine_extremes(w2, u, c)
-        keep = dims[:-2] if vector else dims[:-1]
-        squeeze = (lambda a: a) if speeds.several else (lambda a: a[0])
-        units = attrs["units"]
-        data[f"{name}_peak"] = (lead + keep, squeeze(peak),
-                                {"units": units, "long_name": f"largest magnitude of {name} over the angle"})
-        data[f"{name}_peak_angle"] = (lead + keep, squeeze(theta[index]),
-                                      {"units": "rad", "long_name": f"crank angle θ of the peak of {name}"})
-        data[f"{name}_mean"] = (lead + keep, squeeze(mean),
-                                {"units": units, "long_name": f"mean magnitude of {name} over the angle"})
+        data.update(_affine(name, dims, unit, constant, attrs, speeds, theta, peaks))
 
     # Rotate w-plane loads into the local frames: conj(axis)·f gives (along, across) as (real, imaginary).
-    across_bore = -1j * np.exp(-1j * np.array([c.bank for c in scene.cylinders]))[:, None]
+    across_bore = -1j * np.exp(-1j * bank)[:, None]
     affine("side_thrust", ("cylinder", "angle"), (across_bore * -train.wall_unit).real,
            (across_bore * -train.wall_gas).real,
            {"units": "N", "long_name": "force of the piston on the cylinder wall, across the bore axis",
@@ -147,46 +181,39 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     affine("crank_pin_force", ("cylinder", "crank_axis", "angle"), frame(-train.big_end_unit, crank),
            frame(-train.big_end_gas, crank),
            {"units": "N", "long_name": "force of the con-rod on the crank pin, crank frame"})
-    if gas is not None:
-        data["gas_force"] = (("cylinder", "angle"), gas.force,
-                             {"units": "N", "long_name": "gas force on the piston, towards the crank"})
+    return data
 
-    request = scene.loads
-    if request is not None and request.main_bearings:
-        bearings = np.asarray(request.main_bearings)
-        static = [(to_w(s.force, sense), s.x) for s in request.static_loads]
-        unit, constant = main_bearings(train, [c.x for c in scene.cylinders], bearings, static, sense)
-        coords["bearing"] = ("bearing", [str(i + 1) for i in range(bearings.size)],
-                             {"long_name": "main bearing, numbered as listed in [loads] main_bearings"})
-        data["bearing_position"] = (("bearing",), bearings, {"units": "m", "long_name": "axial position x"})
-        affine("main_bearing_force", ("bearing", "axis", "angle"), np.stack(to_engine(unit, sense), axis=-2),
-               np.stack(to_engine(constant, sense), axis=-2),
-               {"units": "N", "long_name": "force of the crankshaft on the main bearing (on the block)",
-                "description": "statically determinate split (lever rule between neighbouring bearings)"})
-        kmax = scene.sampling.max_order
-        count = revolutions * kmax + 1
-        coords["order"] = ("order", np.arange(count) / revolutions, {"long_name": "order of crank speed",
-                                                                      "units": "1"})
-        coords["rotation"] = ("rotation", ["co", "counter"], {"long_name": "rotation of the phasor"})
 
-        def split(w):
-            co, counter = rotating_split(phasors(w.real, backend)[..., :count], phasors(w.imag, backend)[..., :count])
-            return np.stack([co, counter], axis=-2)
+def _main_bearing_loads(train, request: LoadsRequest, cylinder_x: list, sense: int, speeds: Speeds,
+                        theta: np.ndarray, orders: np.ndarray, coords: dict, backend: str) -> dict:
+    """The main bearings' loads of ``request`` (the scene's [loads] table) by
+    the lever rule, their peaks and their phasors of ``orders`` (0 … max_order
+    in steps of 1/revolutions); their coordinates added to ``coords``."""
+    bearings = np.asarray(request.main_bearings)
+    static = [(to_w(s.force, sense), s.x) for s in request.static_loads]
+    unit, constant = main_bearings(train, cylinder_x, bearings, static, sense)
+    coords["bearing"] = ("bearing", [str(i + 1) for i in range(bearings.size)],
+                         {"long_name": "main bearing, numbered as listed in [loads] main_bearings"})
+    data = {"bearing_position": (("bearing",), bearings, {"units": "m", "long_name": "axial position x"})}
+    data.update(_affine("main_bearing_force", ("bearing", "axis", "angle"), np.stack(to_engine(unit, sense), axis=-2),
+                        np.stack(to_engine(constant, sense), axis=-2),
+                        {"units": "N", "long_name": "force of the crankshaft on the main bearing (on the block)",
+                         "description": "statically determinate split (lever rule between neighbouring bearings)"},
+                        speeds, theta))
+    count = orders.size
+    coords["order"] = ("order", orders, {"long_name": "order of crank speed", "units": "1"})
+    coords["rotation"] = ("rotation", ["co", "counter"], {"long_name": "rotation of the phasor"})
 
-        fixed = split(constant)
-        data["main_bearing_order"] = speeds.variable(("bearing", "rotation", "order"), split(unit), {
-            "units": "N", "long_name": "order phasors of the main-bearing force, w = F_z + i·F_t",
-            "description": "w(θ) = Σ_k (P_co e^{ikθ} + P_counter e^{−ikθ}); order 0 is the mean force (co)"},
-            constant=fixed if np.any(fixed) else None)
-    if request is not None and request.elements:
-        top = request.max_speed if request.max_speed is not None else max(scene.speeds)
-        data.update(_elements(request, scene.shafts, scene.sense, theta, speeds, top, coords))
-    attrs = attributes(scene, n)
-    attrs.update({"title": f"harmbal loads: {scene.name}", "revolutions": revolutions,
-                  "gas": "yes" if gas is not None else "no",
-                  "harmbal_conventions": "constant crank speed; forces in the named frames (see each variable); "
-                                         "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); docs/loads.md"})
-    return dataset(data, coords, attrs)
+    def split(w):
+        co, counter = rotating_split(phasors(w.real, backend)[..., :count], phasors(w.imag, backend)[..., :count])
+        return np.stack([co, counter], axis=-2)
+
+    fixed = split(constant)
+    data["main_bearing_order"] = speeds.variable(("bearing", "rotation", "order"), split(unit), {
+        "units": "N", "long_name": "order phasors of the main-bearing force, w = F_z + i·F_t",
+        "description": "w(θ) = Σ_k (P_co e^{ikθ} + P_counter e^{−ikθ}); order 0 is the mean force (co)"},
+        constant=fixed if np.any(fixed) else None)
+    return data
 
 
 def _elements(request: LoadsRequest, shafts, sense: int, theta: np.ndarray, speeds: Speeds, top: float,

@@ -4,14 +4,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..labelled import SPEED_SCALING, Speeds, dataset, speed_independent_values, unit_speed_values
+from ..labelled import (
+    SPEED_SCALING,
+    Speeds,
+    dataset,
+    speed_independent_values,
+    unit_speed_values,
+)
 from ..model.sampling import AccuracyWarning
-from ..model.evaluate import UnitLoads
-from ..model.gas import GasLoads
-from ..orders.spectrum import (BALANCED_RTOL, CLASS_ATTRS, ROTATION, ZERO_RTOL, aliasing_estimate, classify,
-                               negligible_level, phasors, transverse_split)
+from ..orders.spectrum import (
+    BALANCED_RTOL,
+    CLASS_ATTRS,
+    ROTATION,
+    ZERO_RTOL,
+    aliasing_estimate,
+    classify,
+    negligible_level,
+    phasors,
+    transverse_split,
+)
 from ..scene.schema import DEFAULT_NEGLIGIBLE
-from .time import gas_phasors
+from .evaluation import Evaluation
 
 
 def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", workers: int | None = None):
@@ -160,19 +173,18 @@ def order_arrays(force: np.ndarray, moment: np.ndarray, tails: dict, scales: dic
     return values, attrs
 
 
-def unit_orders(unit: UnitLoads, aliasing: tuple, attrs: dict, backend: str = "scipy",
-                gas: GasLoads | None = None, gas_tail=None, gas_spectrum=None) -> tuple[dict, dict, dict | None]:
-    """:func:`order_arrays` of one evaluation at unit speed (``aliasing`` from
-    :func:`harmbal.views.time.body_aliasing`, ``attrs`` the views' shared
-    attributes, :func:`harmbal.views.time.attributes`), and, with ``gas``, those of the
-    speed-independent gas loads over the cycle (else None; ``gas_tail``:
-    :func:`harmbal.views.time.gas_aliasing`, ``gas_spectrum``: the phasors
-    of :func:`harmbal.views.time.gas_phasors`, if already computed); the
-    values at speed ω are the first times ω² plus the second."""
-    force, moment = unit.total()
+def unit_orders(ev: Evaluation, attrs: dict) -> tuple[dict, dict, dict | None]:
+    """:func:`order_arrays` of the evaluation ``ev`` at unit speed (``attrs``
+    the views' shared attributes, :func:`harmbal.views.time.attributes`),
+    and, with gas, those of the speed-independent gas loads over the cycle
+    (else None); the values at speed ω are the first times ω² plus the
+    second."""
+    unit, gas, backend = ev.unit, ev.gas, ev.backend
+    force, moment = ev.totals
     spectrum = phasors(np.stack([force, moment]), backend)  # (force/moment, axis, order)
     kmax = unit.max_order
-    tails, scales = {"force": aliasing[0], "moment": aliasing[1]}, {"force": unit.force_scale, "moment": unit.moment_scale}
+    tails, scales = {"force": ev.aliasing[0], "moment": ev.aliasing[1]}, {"force": unit.force_scale,
+                                                                         "moment": unit.moment_scale}
     if gas is None:
         return (*order_arrays(spectrum[0], spectrum[1], tails, scales, attrs, max_order=kmax, backend=backend), None)
     revs = gas.revolutions
@@ -181,8 +193,7 @@ def unit_orders(unit: UnitLoads, aliasing: tuple, attrs: dict, backend: str = "s
     spread[..., ::revs] = spectrum[..., : kmax + 1]
     values, attrs = order_arrays(spread[0], spread[1], tails, scales, attrs, max_order=kmax, backend=backend,
                                  revolutions=revs)
-    if gas_spectrum is None or gas_tail is None:
-        gas_spectrum, gas_tail = gas_phasors(gas, kmax, backend)
+    gas_spectrum, gas_tail = ev.gas_spectrum
     # The gas exerts a pure couple about the crank axis: no force, no transverse moment, so of the
     # order view's variables only the moment, its aliasing estimate and its scale have a gas part.
     scale = gas.moment_scale

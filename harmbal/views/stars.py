@@ -2,19 +2,28 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..labelled import AXES, Speeds, dataset, with_speed_indexes
 from ..model.evaluate import evaluate
 from ..orders.phasors import OrderPhasors, order_phasors
-from ..orders.spectrum import BALANCED_RTOL, FREE, ROTATION, ZERO_RTOL, transverse_split, zero_below_round_off
-from ..scene.schema import DEFAULT_NEGLIGIBLE
+from ..orders.spectrum import (
+    BALANCED_RTOL,
+    FREE,
+    ROTATION,
+    ZERO_RTOL,
+    transverse_split,
+    zero_below_round_off,
+)
 from ..orders.stars import crank_stars
-from ..scene.firing import Firing, cylinder_firing
 from ..scene import Scene
+from ..scene.firing import Firing, cylinder_firing
+from ..scene.schema import DEFAULT_NEGLIGIBLE
+from .evaluation import Evaluation
 from .orders import order_classes
 from .time import attributes
-
 
 #: Relative tolerance of :func:`verify_orders`, of the largest single
 #: cylinder's peak load.
@@ -65,63 +74,59 @@ def stars(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         * ``firing_angle`` (cylinder) [rad], ``firing_sequence`` and
           ``firing_interval`` [rad] (firing).
     """
-    p = order_phasors(evaluate(scene, samples_per_rev), backend)
-    return stars_dataset(p, Speeds(scene.speeds), attributes(scene, p.samples_per_rev), *placement(scene))
+    ev = Evaluation(evaluate(scene, samples_per_rev), backend=backend)
+    return stars_dataset(ev, Speeds(scene.speeds), attributes(scene, ev.unit.samples_per_rev), placement(scene))
 
 
-def placement(scene: Scene) -> tuple[list[str], np.ndarray, np.ndarray, Firing]:
-    """What :func:`stars_dataset` reads of the cylinders: labels, throw and
-    bank angles [rad] and the firing (:func:`harmbal.scene.firing.cylinder_firing`)."""
+class Placement(NamedTuple):
+    """What :func:`stars_dataset` reads of the cylinders: ``labels``,
+    ``throw`` and ``bank`` angles [rad] and the ``firing``
+    (:func:`harmbal.scene.firing.cylinder_firing`)."""
+
+    labels: list[str]
+    throw: np.ndarray
+    bank: np.ndarray
+    firing: Firing
+
+
+def placement(scene: Scene) -> Placement:
+    """The cylinders' :class:`Placement` in ``scene``."""
     cyls = scene.cylinders
-    return ([c.label for c in cyls], np.array([c.throw for c in cyls]), np.array([c.bank for c in cyls]),
-            cylinder_firing(cyls, scene.cycle, scene.firing_order))
+    return Placement([c.label for c in cyls], np.array([c.throw for c in cyls]), np.array([c.bank for c in cyls]),
+                     cylinder_firing(cyls, scene.cycle, scene.firing_order))
 
 
 #: The free vectors of :func:`stars` that an analysis tree keeps in ``/orders`` only.
 FREE_VECTORS = ("force", "moment", "force_rotating", "moment_rotating")
 
 
-def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str], throw: np.ndarray,
-                  bank: np.ndarray, fire: Firing, *, totals: tuple | None = None):
-    """The Dataset of :func:`stars` from the order phasors ``p`` at
+def stars_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, place: Placement, *, totals: tuple | None = None):
+    """The Dataset of :func:`stars` from the order phasors of the evaluation
+    ``ev`` (:attr:`harmbal.views.evaluation.Evaluation.phasors`) at
     ``speeds``, with the views' shared ``attrs``
-    (:func:`harmbal.views.time.attributes`) and the cylinders' ``labels``,
-    ``throw`` and ``bank`` angles [rad] and firing (:func:`placement`).
+    (:func:`harmbal.views.time.attributes`) and the cylinders' placement
+    (:func:`placement`).
 
     ``totals``: the unit-speed force and moment phasors (axis, order) of an
     analysis tree's ``/orders``; then the free vectors are classified from
     them and :data:`FREE_VECTORS` are left to ``/orders``
     (:func:`with_free_vectors` puts them back)."""
+    p = ev.phasors
     kmax = p.force_cylinder.shape[-1] - 1
-    sense = p.sense
-    var, coords = speeds.variable, speeds.coords()
+    labels, var, coords = place.labels, speeds.variable, speeds.coords()
 
     def rotating(per_axis):
-        return np.stack(transverse_split(per_axis, sense), axis=-1)
+        return np.stack(transverse_split(per_axis, p.sense), axis=-1)
 
-    force_scale, moment_scale = p.force_scale, p.moment_scale
     # In a tree the free vectors are /orders' (one set of totals judged once); alone, the order domain's.
     force, moment = (p.force, p.moment) if totals is None else totals
     force_rot, moment_rot = rotating(force), rotating(moment)
     # The classes and levels as /orders judges them (at unit speed: every speed has the same classes).
-    classes = order_classes({"force_rotating": force_rot, "force_scale": force_scale, "moment_rotating": moment_rot,
-                             "moment": moment.T, "moment_scale": moment_scale}, {}, speeds,
+    classes = order_classes({"force_rotating": force_rot, "force_scale": p.force_scale, "moment_rotating": moment_rot,
+                             "moment": moment.T, "moment_scale": p.moment_scale}, {}, speeds,
                             {**attrs, "cylinders": len(labels)})
     force_free, moment_free, roll_free = (classes[f"{name}_class"][1] == FREE for name in ("force", "moment", "roll"))
-
-    angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars(throw, bank, kmax)
-
-    # Alone, the free vectors of the order domain; in a tree they are /orders' (FREE_VECTORS).
-    free = {} if totals is not None else {
-        "force": var(("order", "axis"), zero_below_round_off(force, force_scale).T,
-                     {"units": "N", "long_name": "free force phasor"}),
-        "moment": var(("order", "axis"), zero_below_round_off(moment, moment_scale).T,
-                      {"units": "N m", "long_name": "free moment phasor about the reference point"}),
-        "force_rotating": var(("order", "rotation"), zero_below_round_off(force_rot, force_scale),
-                              {"units": "N", "long_name": "co- and counter-rotating free force phasors"}),
-        "moment_rotating": var(("order", "rotation"), zero_below_round_off(moment_rot, moment_scale),
-                               {"units": "N m", "long_name": "co- and counter-rotating free moment phasors"}),
-    }
+    angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars(place.throw, place.bank, kmax)
     data = {
         "star_angle": (("order", "cylinder"), angles, {"units": "rad", "long_name": "crank star arm k·φ_i"}),
         "star_regular": ("order", regular, {"long_name": "crank star arms equally spaced with equal multiplicity"}),
@@ -129,7 +134,8 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
         "bank_star_regular": (("order", "bank"), bank_regular, {"long_name": "crank star of one bank is regular"}),
         "bank_star_resultant": (("order", "bank"), bank_resultant,
                                 {"units": "1", "long_name": "sum of the unit arms of one bank's star"}),
-        **free,
+        # Alone, the free vectors of the order domain; in a tree they are /orders' (FREE_VECTORS).
+        **({} if totals is not None else _free_vectors(p, var, force, moment, force_rot, moment_rot)),
         "force_cylinder": var(("cylinder", "order", "rotation"), rotating(p.force_cylinder),
                               {"units": "N", "long_name": "one cylinder's rotating force phasors"}),
         "moment_cylinder": var(("cylinder", "order", "rotation"), rotating(p.moment_cylinder),
@@ -141,26 +147,57 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
         "roll_free": ("order", roll_free,
                       {"long_name": "moment about the crank axis is free (above the negligible level)"}),
         **classes,
-        "force_scale": var((), force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
-        "moment_scale": var((), moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
+        "force_scale": var((), p.force_scale, {"units": "N", "long_name": "sum of single-body peak forces"}),
+        "moment_scale": var((), p.moment_scale, {"units": "N m", "long_name": "sum of single-body peak moments"}),
         "aliasing_error_force": var((), p.aliasing[0],
                                     {"units": "N", "long_name": "estimated aliasing error of the force phasors"}),
         "aliasing_error_moment": var((), p.aliasing[1],
                                      {"units": "N m", "long_name": "estimated aliasing error of the moment phasors"}),
-        "firing_angle": ("cylinder", fire.angle, {"units": "rad", "long_name": "crank angle θ of firing"}),
-        "firing_sequence": ("firing", [labels[i] for i in fire.sequence], {"long_name": "cylinder firing"}),
-        "firing_interval": ("firing", fire.interval, {"units": "rad", "long_name": "crank angle to the next firing"}),
+        "firing_angle": ("cylinder", place.firing.angle, {"units": "rad", "long_name": "crank angle θ of firing"}),
+        "firing_sequence": ("firing", [labels[i] for i in place.firing.sequence], {"long_name": "cylinder firing"}),
+        "firing_interval": ("firing", place.firing.interval,
+                            {"units": "rad", "long_name": "crank angle to the next firing"}),
     }
-    coords.update({
+    coords.update(_star_coords(place, kmax, banks))
+    if totals is not None:
+        del coords["axis"]  # only the free vectors have it
+    return dataset(data, coords, _star_attrs(attrs, p, place))
+
+
+def _free_vectors(p: OrderPhasors, var, force, moment, force_rot, moment_rot) -> dict:
+    """The free vectors of :func:`stars` alone (:data:`FREE_VECTORS`), with
+    components at or below round-off of the load scales set to exactly 0."""
+    force_scale, moment_scale = p.force_scale, p.moment_scale
+    return {
+        "force": var(("order", "axis"), zero_below_round_off(force, force_scale).T,
+                     {"units": "N", "long_name": "free force phasor"}),
+        "moment": var(("order", "axis"), zero_below_round_off(moment, moment_scale).T,
+                      {"units": "N m", "long_name": "free moment phasor about the reference point"}),
+        "force_rotating": var(("order", "rotation"), zero_below_round_off(force_rot, force_scale),
+                              {"units": "N", "long_name": "co- and counter-rotating free force phasors"}),
+        "moment_rotating": var(("order", "rotation"), zero_below_round_off(moment_rot, moment_scale),
+                               {"units": "N m", "long_name": "co- and counter-rotating free moment phasors"}),
+    }
+
+
+def _star_coords(place: Placement, kmax: int, banks: np.ndarray) -> dict:
+    """The coordinates of :func:`stars` besides the speeds'."""
+    return {
         "order": ("order", np.arange(kmax + 1), {"long_name": "order of crank speed", "units": "1"}),
-        "cylinder": ("cylinder", labels, {"long_name": "cylinder label"}),
-        "throw": ("cylinder", np.asarray(throw, dtype=float), {"units": "rad", "long_name": "throw angle φ"}),
-        "cylinder_bank": ("cylinder", np.asarray(bank, dtype=float), {"units": "rad", "long_name": "bank angle β"}),
+        "cylinder": ("cylinder", place.labels, {"long_name": "cylinder label"}),
+        "throw": ("cylinder", np.asarray(place.throw, dtype=float), {"units": "rad", "long_name": "throw angle φ"}),
+        "cylinder_bank": ("cylinder", np.asarray(place.bank, dtype=float),
+                          {"units": "rad", "long_name": "bank angle β"}),
         "axis": ("axis", list(AXES), {"long_name": "engine axis"}),
         "rotation": ("rotation", list(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
         "bank": ("bank", banks, {"units": "rad", "long_name": "bank angle"}),
-        "firing": ("firing", np.arange(1, len(labels) + 1), {"long_name": "position in the firing sequence"}),
-    })
+        "firing": ("firing", np.arange(1, len(place.labels) + 1), {"long_name": "position in the firing sequence"}),
+    }
+
+
+def _star_attrs(attrs: dict, p: OrderPhasors, place: Placement) -> dict:
+    """The attributes of :func:`stars`: the views' shared ``attrs`` and the order domain's own."""
+    labels, fire = place.labels, place.firing
     attrs = dict(attrs)
     attrs.update({
         "title": f"harmbal crank stars and free vectors: {attrs['engine']}",
@@ -168,7 +205,7 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
         "cylinder_types": p.groups,
         "amplitude": "peak (one-sided)",
         "phase": "arg C_k, relative to theta = 0 (throw 1 along +z)",
-        "transverse_frame": f"w = z + i t, t = {'+' if sense < 0 else '-'}y",
+        "transverse_frame": f"w = z + i t, t = {'+' if p.sense < 0 else '-'}y",
         "balanced_rtol": BALANCED_RTOL,
         "zero_rtol": ZERO_RTOL,
         "negligible": float(attrs.get("negligible", DEFAULT_NEGLIGIBLE)),
@@ -176,9 +213,7 @@ def stars_dataset(p: OrderPhasors, speeds: Speeds, attrs: dict, labels: list[str
         "firing_order_given": "yes" if fire.given else "no",
         "firing_even": "yes" if fire.even else "no",
     })
-    if totals is not None:
-        del coords["axis"]  # only the free vectors have it
-    return dataset(data, coords, attrs)
+    return attrs
 
 
 def verify_orders(scene: Scene, *, backend: str = "scipy"):

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from .._version import __version__
 from ..labelled import AXES, CONVENTIONS, Speeds, dataset
-from ..model.evaluate import UnitLoads, evaluate, moment_about, time_domain_evaluation
+from ..model.evaluate import evaluate
 from ..model.gas import GasLoads, gas_loads
-from ..model.sampling import simulates_gas
-from ..orders.spectrum import ROUND_OFF_FLOOR, aliasing_estimate, phasors
 from ..scene import EFFECTS, Scene
+from .evaluation import Evaluation, body_aliasing, evaluation, gas_aliasing
 
 
 def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int | None = None):
@@ -57,138 +54,30 @@ def simulate(scene: Scene, *, per_cylinder: bool = False, samples_per_rev: int |
         if per_cylinder:
             raise ValueError("per_cylinder is not available at a fluctuating speed (effect speed_fluctuation)")
         return fluctuating_time_dataset(scene, samples_per_rev=samples_per_rev)
-    unit, samples = time_domain_evaluation(scene, samples_per_rev)
-    gas = gas_loads(scene, samples) if simulates_gas(scene) else None
-    return time_dataset(unit, Speeds(scene.speeds), attributes(scene, unit.samples_per_rev, gas),
-                        labels=[c.label for c in scene.cylinders] if per_cylinder else None, gas=gas)
+    ev = evaluation(scene, samples_per_rev)
+    return time_dataset(ev, Speeds(scene.speeds), attributes(scene, ev.unit.samples_per_rev, ev.gas),
+                        labels=[c.label for c in scene.cylinders] if per_cylinder else None)
 
 
-def body_moments(unit: UnitLoads) -> tuple[np.ndarray, np.ndarray]:
-    """Moments about the reference point of each cylinder (cylinder, axis,
-    angle) and of the crankshaft with its elements (axis, angle)."""
-    force, moment = unit.crankshaft()
-    return (moment_about(unit.reference_point, unit.force_cylinder, unit.moment_cylinder),
-            moment_about(unit.reference_point, force, moment))
-
-
-def cycle_loads(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The inertia's total force and moment about the reference point
-    (:meth:`UnitLoads.total`, (axis, M)) and the moving parts' drive torque
-    (M,) on the gas cycle's grid (:meth:`GasLoads.on_cycle`), for /time and
-    /torque: one interpolation for the seven rows."""
-    force, moment = unit.total()
-    cycle = gas.on_cycle(np.concatenate([force, moment, unit.drive_torque.sum(axis=0, keepdims=True)]))
-    return cycle[:3], cycle[3:6], cycle[6]
-
-
-def body_aliasing(unit: UnitLoads, backend: str = "scipy", moments: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Aliasing estimates per axis (force, moment) of the orders ≤
-    ``max_order``, summed over the cylinders and the crankshaft without
-    cancellation, at unit speed.
-
-    The tail of the *total* spectrum can mislead: an engine whose cylinders
-    cancel every order in the sampled tail band (a W24 keeps only multiples
-    of 12 in its moment) hides the orders beyond it that fold back onto the
-    orders kept. Each body's own spectrum decays smoothly, so the sum of their
-    tail estimates (:func:`harmbal.orders.spectrum.aliasing_estimate`) bounds
-    the total's aliasing whatever cancels; each fit decays no faster than the
-    body's geometry allows (``unit.decay_rates``). ``moments``:
-    :func:`body_moments` if already computed.
-
-    The crankshaft's static unbalances and balance shafts are single
-    harmonics: sampled with N > order + ``max_order`` (as the scene's sampling
-    ensures) they fold onto no order kept, so their lines in the tail band (a
-    20× shaft at 48 samples) are left out of the crankshaft's fit, though not
-    out of its round-off floor.
-    """
-    moment_cylinder, moment_crankshaft = moments if moments is not None else body_moments(unit)
-    n = unit.samples_per_rev
-    crank_force, _ = unit.crankshaft()
-    # One batched FFT of every body's force and moment: (body, force/moment × axis, angle).
-    bodies = np.concatenate([np.concatenate([unit.force_cylinder, moment_cylinder], axis=1),
-                             np.concatenate([crank_force, moment_crankshaft])[None]])
-    magnitudes = np.abs(phasors(bodies, backend))
-    slowest = unit.decay_rates[:, None]
-    tails = aliasing_estimate(magnitudes, n, unit.max_order, slowest)
-    lines = _exact_lines(unit.harmonic_orders, n, unit.max_order)
-    if lines:
-        crank = magnitudes[-1].copy()
-        crank[:, lines] = 0.0
-        floor = ROUND_OFF_FLOOR * magnitudes[-1].max(axis=-1)
-        tails[-1] = np.maximum(aliasing_estimate(crank, n, unit.max_order, slowest[-1]), floor)
-    tail = tails.sum(axis=0)
-    return tail[:3], tail[3:]
-
-
-def _exact_lines(orders: tuple, samples: int, max_order: int) -> list[int]:
-    """The bins above ``max_order`` of an N-sample spectrum where the single
-    harmonics of ``orders`` stand (none if one of them folds onto an order
-    kept, N ≤ order + max_order: then the fit must see it)."""
-    if any(k + max_order >= samples for k in orders):
-        return []
-    return sorted({k if 2 * k <= samples else samples - k for k in orders if k > max_order})
-
-
-def gas_aliasing(gas: GasLoads, max_order: int, backend: str = "scipy") -> np.ndarray:
-    """Aliasing estimate of the gas moment's phasors per axis (only x is
-    nonzero), summed over the cylinders without cancellation."""
-    return gas_phasors(gas, max_order, backend)[1]
-
-
-def gas_phasors(gas: GasLoads, max_order: int, backend: str = "scipy") -> tuple[np.ndarray, np.ndarray]:
-    """Order phasors of each cylinder's gas torque, orders 0 … ``max_order``
-    in steps of 1/revolutions (cylinder, order), and :func:`gas_aliasing`.
-
-    One FFT per cylinder evaluated (``gas.template``): a cylinder whose
-    torque is another's rolled by s of the M samples has that one's phasors
-    times e^{−2πiks/M} (the shift theorem, exact for a roll) and the same
-    magnitudes, hence the same tail estimate.
-    """
-    rows, position = gas.templates
-    spectrum = phasors(gas.torque[rows], backend)
-    m, count = gas.theta.size, gas.revolutions * max_order + 1
-    orders = spectrum[position, :count] * _shift_factors(m, tuple(gas.shift.tolist()), count)
-    tail = aliasing_estimate(np.abs(spectrum), m, count - 1)[position].sum()
-    return orders, np.array([tail, 0.0, 0.0])
-
-
-@functools.lru_cache(maxsize=16)
-def _shift_factors(m: int, shift: tuple[int, ...], count: int) -> np.ndarray:
-    """e^{−2πiks/M} for each shift s (cylinder) and order k < ``count``
-    (read-only; cached like the firing stars: a scene's shifts do not change
-    between its analyses), read from the M-th roots of unity: the same to
-    round-off as the exponential, at a third of its cost."""
-    roots = np.exp(-2j * np.pi * np.arange(m) / m)
-    factors = roots[np.multiply.outer(np.array(shift), np.arange(count)) % m]
-    factors.flags.writeable = False
-    return factors
-
-
-def time_dataset(unit: UnitLoads, speeds: Speeds, attrs: dict, *, labels: list[str] | None = None, moments=None,
-                 aliasing=None, gas: GasLoads | None = None, gas_tail=None, cycle=None, backend: str = "scipy"):
-    """The time-domain Dataset of one evaluation (see :func:`simulate`) at
-    ``speeds``, with the Dataset's ``attrs`` (:func:`attributes`); each
-    cylinder's loads too, under the cylinder ``labels``, if given.
-    ``moments`` = :func:`body_moments`, ``aliasing`` = :func:`body_aliasing`,
-    ``gas_tail`` = :func:`gas_aliasing` and ``cycle`` = :func:`cycle_loads`
-    if already computed; ``gas`` the gas loads if simulated (on the cycle's
-    grid, onto which ``unit``'s revolution is interpolated and repeated:
-    :meth:`GasLoads.on_cycle`)."""
-    per_cylinder = labels is not None
-    moments = moments if moments is not None else body_moments(unit)
-    moment_cyl = moments[0]
-    alias_force, alias_moment = aliasing if aliasing is not None else body_aliasing(unit, moments=moments)
+def time_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, *, labels: list[str] | None = None):
+    """The time-domain Dataset of the evaluation ``ev`` (see :func:`simulate`)
+    at ``speeds``, with the Dataset's ``attrs`` (:func:`attributes`); each
+    cylinder's loads too, under the cylinder ``labels``, if given. With gas,
+    over the gas cycle's grid, onto which the inertia's revolution is
+    interpolated and repeated (:meth:`GasLoads.on_cycle`)."""
+    unit, gas, per_cylinder = ev.unit, ev.gas, labels is not None
+    moment_cyl = ev.moments[0]
+    alias_force, alias_moment = ev.aliasing
     # Speed-independent parts (gas) of the moment, its scale and aliasing estimate; the inertia repeats each turn.
     theta, force_cyl, extra = unit.theta, unit.force_cylinder, {}
     if gas is None:
-        force, moment = unit.total()
+        force, moment = ev.totals
     else:
         theta = gas.theta
-        force, moment, _ = cycle if cycle is not None else cycle_loads(unit, gas)
+        force, moment, _ = ev.cycle
         if per_cylinder:
             force_cyl, moment_cyl = gas.on_cycle(np.stack([force_cyl, moment_cyl]))
-        extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale,
-                 "aliasing_error_moment": gas_aliasing(gas, unit.max_order, backend) if gas_tail is None else gas_tail}
+        extra = {"moment": gas.moment(), "moment_scale": gas.moment_scale, "aliasing_error_moment": ev.gas_spectrum[1]}
 
     def var(dims, values, attrs, name=None):
         return speeds.variable(dims, values, attrs, constant=extra.get(name))

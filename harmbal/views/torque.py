@@ -13,7 +13,7 @@ from ..model.evaluate import UnitLoads
 from ..model.gas import GasLoads
 from ..orders.spectrum import is_balanced, phasors
 from ..scene.schema import Flywheel
-from .time import gas_phasors
+from .evaluation import Evaluation
 
 #: An order is "major" when the arms of its firing star coincide to within this (of the cylinder count).
 MAJOR_RTOL = 1e-9
@@ -41,18 +41,18 @@ def _firing_stars(firing_angle: tuple[float, ...], max_order: int, revolutions: 
     return order, arms, resultant, major
 
 
-def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, labels: list[str],
-                   crank_radius: np.ndarray, *, flywheel: Flywheel | None = None, backend: str = "scipy",
-                   spectrum=None, mass_torque=None):
+def torque_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, labels: list[str], crank_radius: np.ndarray, *,
+                   flywheel: Flywheel | None = None):
     """Pressure, gas torque, mass torque and their orders over the cycle.
 
     Parameters
     ----------
-    unit : UnitLoads
-        The inertia evaluation, on the cycle's grid or a coarser one of its
-        own (:meth:`GasLoads.on_cycle` brings it onto the cycle's).
-    gas : GasLoads
-        The gas loads (:func:`harmbal.model.gas.gas_loads`).
+    ev : Evaluation
+        An evaluation with gas (:class:`harmbal.views.evaluation.Evaluation`):
+        the inertia on the cycle's grid or a coarser one of its own
+        (:meth:`GasLoads.on_cycle` brings it onto the cycle's), the gas loads
+        (:func:`harmbal.model.gas.gas_loads`), the gas torque's phasors and
+        the mass torque on the cycle's grid.
     speeds : Speeds
         The scene's speeds.
     attrs : dict
@@ -63,13 +63,6 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
         Each cylinder's crank radius [m] (cylinder,).
     flywheel : Flywheel, optional
         The scene's ``[flywheel]`` table: then the speed fluctuation too.
-    spectrum : ndarray, optional
-        The gas torque's phasors (:func:`harmbal.views.time.gas_phasors`),
-        if already computed.
-    mass_torque : ndarray, optional
-        The moving parts' drive torque on the cycle's grid at ω = 1 rad/s
-        (the last of :func:`harmbal.views.time.cycle_loads`), if already
-        computed.
 
     Returns
     -------
@@ -102,15 +95,15 @@ def torque_dataset(unit: UnitLoads, gas: GasLoads, speeds: Speeds, attrs: dict, 
           ``fluctuation_coefficient``, ``flywheel_inertia``, ``load_torque``
           and, for a target coefficient, ``flywheel_inertia_needed``.
     """
+    unit, gas, backend = ev.unit, ev.required_gas, ev.backend
     kmax = unit.max_order
     revs = gas.revolutions
     order, arms, resultant, major = firing_stars(gas.firing_angle, kmax, revs)
     count = order.size
 
     # The mass torque repeats every revolution; over the cycle it has whole orders only.
-    if mass_torque is None:
-        mass_torque = gas.on_cycle(unit.drive_torque.sum(axis=0))
-    gas_spectrum = gas_phasors(gas, kmax, backend)[0] if spectrum is None else spectrum
+    mass_torque = ev.cycle[2]
+    gas_spectrum = ev.gas_spectrum[0]
     gas_total = gas_spectrum.sum(axis=0)
     # Each cylinder's mass torque over the cycle: whole orders only.
     mass_cylinder = np.zeros((len(labels), count), dtype=complex)

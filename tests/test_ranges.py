@@ -144,7 +144,7 @@ def test_every_key_the_reader_reads_has_a_range():
     source = _reader_source()
     call = r'(?:quantity(?:_list)?\(\s*[^,()]+,\s*|\bq\()"(\w+)",\s*(?:[^,()]*\([^()]*\)|[^,()]+),\s*"(\w+)"'
     quantities = set(re.findall(call, source)) | set(re.findall(r'\bq\("(\w+)",\s*"(\w+)"', source))
-    integers = set(re.findall(r'\bself\.integer\(\s*[^,()]+,\s*"(\w+)"', source))
+    integers = set(re.findall(r'\breader\.integer\(\s*[^,()]+,\s*"(\w+)"', source))
     assert len(quantities) > 40 and {"samples_per_rev", "max_order", "order", "points"} <= integers
     for name, dimension in quantities:
         assert dimension in MAGNITUDES or name in KEY_RANGES, (name, dimension)
@@ -159,12 +159,12 @@ def test_every_key_the_reader_reads_has_a_range():
 
 
 def test_a_dimensionless_key_without_a_range_cannot_be_read():
-    from harmbal.scene.reader import _Reader
+    from harmbal.scene.collector import Collector
 
     with pytest.raises(KeyError, match="KEY_RANGES"):
-        _Reader("x.toml").quantity({"new_key": 1.0}, "new_key", "model", "dimensionless")
+        Collector("x.toml").quantity({"new_key": 1.0}, "new_key", "model", "dimensionless")
     with pytest.raises(KeyError):
-        _Reader("x.toml").integer({"new_count": 3}, "new_count", "model", None, 1)
+        Collector("x.toml").integer({"new_count": 3}, "new_count", "model", None, 1)
 
 
 # -- both ends of every range ----------------------------------------------------------------------

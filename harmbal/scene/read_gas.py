@@ -17,13 +17,14 @@ from typing import Any
 
 import numpy as np
 
+from .collector import Collector, SceneContext
 from .ranges import MAGNITUDES
-from .schema import (_MISSING, DEFAULT_CRANKCASE_PRESSURE, INTERPOLATIONS, SPEED_MEANS, Combustion, Flywheel, Gas,
-                     PressureTrace, _join)
+from .schema import (MISSING, DEFAULT_CRANKCASE_PRESSURE, INTERPOLATIONS, SPEED_MEANS, Combustion, Flywheel, Gas,
+                     PressureTrace, key_path)
 from .source_files import MAX_TRACE_BYTES, FileRefused, read_regular, resolve_trace
 from .units import to_si
 
-_GAS_KEYS = {"bore", "crankcase_pressure", "trace", "combustion"}
+GAS_KEYS = {"bore", "crankcase_pressure", "trace", "combustion"}
 _FLYWHEEL_KEYS = {"inertia", "load_torque", "target_coefficient", "mean"}
 _TRACE_KEYS = {"angle", "pressure", "file", "units", "interpolation"}
 _COMBUSTION_KEYS = {"compression_ratio", "intake_pressure", "exhaust_pressure", "compression_exponent",
@@ -82,392 +83,394 @@ class _Columns:
     written: str = "inline"
 
 
-class GasTables:
-    """The [gas] tables and [flywheel]; mixed into the scene reader, whose
-    primitives (``fail``, ``table``, ``quantity``, ...) it uses. ``base`` is
-    the directory trace files are relative to, ``files`` the trace files read
-    so far (path -> text), ``gases`` the distinct gas tables made so far."""
+def read_flywheel(reader: Collector, data: Mapping, has_gas: bool) -> Flywheel | None:
+    """[flywheel]: what the speed fluctuation needs beyond the gas torque."""
+    if "flywheel" not in data:
+        return None
+    table = reader.table(data, "flywheel", "flywheel", _FLYWHEEL_KEYS)
+    if not has_gas:
+        reader.fail("flywheel", data["flywheel"], "the speed fluctuation is driven by the gas torque: "
+                    "it needs a [gas] table")
+    inertia = reader.quantity(table, "inertia", "flywheel", "inertia", positive=True)
+    load = reader.quantity(table, "load_torque", "flywheel", "moment") if "load_torque" in table else None
+    target = None
+    if "target_coefficient" in table:
+        target = reader.quantity(table, "target_coefficient", "flywheel", "dimensionless", positive=True)  # (0, 1)
+    mean = reader.choice(table, "mean", "flywheel", SPEED_MEANS, "time")
+    return Flywheel(inertia=inertia, load_torque=load, target_coefficient=target, mean=mean)
 
-    def flywheel(self, data: Mapping, has_gas: bool) -> Flywheel | None:
-        """[flywheel]: what the speed fluctuation needs beyond the gas torque."""
-        if "flywheel" not in data:
-            return None
-        table = self.table(data, "flywheel", "flywheel", _FLYWHEEL_KEYS)
-        if not has_gas:
-            self.fail("flywheel", data["flywheel"], "the speed fluctuation is driven by the gas torque: "
-                      "it needs a [gas] table")
-        inertia = self.quantity(table, "inertia", "flywheel", "inertia", positive=True)
-        load = self.quantity(table, "load_torque", "flywheel", "moment") if "load_torque" in table else None
-        target = None
-        if "target_coefficient" in table:
-            target = self.quantity(table, "target_coefficient", "flywheel", "dimensionless", positive=True)  # (0, 1)
-        mean = self.choice(table, "mean", "flywheel", SPEED_MEANS, "time")
-        return Flywheel(inertia=inertia, load_torque=load, target_coefficient=target, mean=mean)
 
-    def gas_merged(self, shared: Mapping | None, entry: Mapping, path: str) -> tuple[dict, dict[str, str]] | None:
-        """A cylinder's gas table: the shared [gas] overlaid key by key by its
-        own ``gas`` table (sub-tables likewise; a cylinder giving ``trace``
-        drops the shared ``combustion`` and vice versa, and a trace giving
-        ``file`` drops the shared ``angle``/``pressure`` and vice versa), with
-        the section each key was written in. None when neither has one."""
-        own = self.table(entry, "gas", _join(path, "gas"), _GAS_KEYS)
-        if shared is None and "gas" not in entry:
-            return None
-        shared = shared or {}
-        merged, where = {}, {}
-        for key in _GAS_KEYS - {"trace", "combustion"}:
-            if key in own:
-                merged[key], where[key] = own[key], _join(path, "gas")
-            elif key in shared:
-                merged[key], where[key] = shared[key], "gas"
-        chosen = [k for k in ("trace", "combustion") if k in own] or [k for k in ("trace", "combustion") if k in shared]
-        for key in chosen:
-            mine, theirs = own.get(key, {}), shared.get(key, {})
-            if not isinstance(mine, Mapping) or not isinstance(theirs, Mapping):
-                bad = (_join(path, "gas"), mine) if not isinstance(mine, Mapping) else ("gas", theirs)
-                self.fail(_join(bad[0], key), bad[1], "must be a table")
-                continue
-            if key == "trace":
-                for source in _TABLE_SOURCES:
-                    if source & mine.keys():
-                        theirs = {k: v for k, v in theirs.items() if k not in set().union(*_TABLE_SOURCES) - source}
-            merged[key] = {**theirs, **mine}
-            # Each key of the sub-table is reported where it was written.
-            where[key] = {k: _join(_join(path, "gas") if k in mine else "gas", key) for k in merged[key]}
-        return merged, where
-
-    def gas(self, merged: tuple[dict, dict[str, str]] | None, cycle: int) -> Gas | None:
-        """The validated :class:`Gas` of one cylinder (None without a gas table)."""
-        if merged is None:
-            return None
-        table, where = merged
-        bore = self.quantity(table, "bore", where.get("bore", "gas"), "length", positive=True)
-        crankcase = self.quantity(table, "crankcase_pressure", where.get("crankcase_pressure", "gas"), "pressure",
-                                  default=DEFAULT_CRANKCASE_PRESSURE, positive=True)
-        given = [k for k in ("trace", "combustion") if k in table]
-        if len(given) != 1:
-            self.fail("gas", sorted(given) if given else _MISSING,
-                      "give exactly one of [gas.trace] (a measured trace) and [gas.combustion] (a parametric one)")
-            return None
-        key = given[0]
-        allowed = _TRACE_KEYS if key == "trace" else _COMBUSTION_KEYS
-        for name, value in table[key].items():
-            self.unknown({name: value}, where[key][name], allowed)
-        # Problems of the sub-table as a whole go where the cylinder wrote it, or to the shared one.
-        section = next((w for w in where[key].values() if not w.startswith("gas.")), f"gas.{key}")
+def merge_gas(reader: Collector, shared: Mapping | None, entry: Mapping,
+              path: str) -> tuple[dict, dict[str, str]] | None:
+    """A cylinder's gas table: the shared [gas] overlaid key by key by its
+    own ``gas`` table (sub-tables likewise; a cylinder giving ``trace``
+    drops the shared ``combustion`` and vice versa, and a trace giving
+    ``file`` drops the shared ``angle``/``pressure`` and vice versa), with
+    the section each key was written in. None when neither has one."""
+    own = reader.table(entry, "gas", key_path(path, "gas"), GAS_KEYS)
+    if shared is None and "gas" not in entry:
+        return None
+    shared = shared or {}
+    merged, where = {}, {}
+    for key in GAS_KEYS - {"trace", "combustion"}:
+        if key in own:
+            merged[key], where[key] = own[key], key_path(path, "gas")
+        elif key in shared:
+            merged[key], where[key] = shared[key], "gas"
+    chosen = [k for k in ("trace", "combustion") if k in own] or [k for k in ("trace", "combustion") if k in shared]
+    for key in chosen:
+        mine, theirs = own.get(key, {}), shared.get(key, {})
+        if not isinstance(mine, Mapping) or not isinstance(theirs, Mapping):
+            bad = (key_path(path, "gas"), mine) if not isinstance(mine, Mapping) else ("gas", theirs)
+            reader.fail(key_path(bad[0], key), bad[1], "must be a table")
+            continue
         if key == "trace":
-            crankcase_key = _join(where.get("crankcase_pressure", "gas"), "crankcase_pressure")
-            trace = self.trace(table["trace"], where["trace"], section, cycle, (crankcase, crankcase_key))
+            for source in _TABLE_SOURCES:
+                if source & mine.keys():
+                    theirs = {k: v for k, v in theirs.items() if k not in set().union(*_TABLE_SOURCES) - source}
+        merged[key] = {**theirs, **mine}
+        # Each key of the sub-table is reported where it was written.
+        where[key] = {k: key_path(key_path(path, "gas") if k in mine else "gas", key) for k in merged[key]}
+    return merged, where
+
+
+def read_gas(reader: Collector, context: SceneContext, merged: tuple[dict, dict[str, str]] | None,
+             cycle: int) -> Gas | None:
+    """The validated :class:`Gas` of one cylinder (None without a gas table)."""
+    if merged is None:
+        return None
+    table, where = merged
+    bore = reader.quantity(table, "bore", where.get("bore", "gas"), "length", positive=True)
+    crankcase = reader.quantity(table, "crankcase_pressure", where.get("crankcase_pressure", "gas"), "pressure",
+                                default=DEFAULT_CRANKCASE_PRESSURE, positive=True)
+    given = [k for k in ("trace", "combustion") if k in table]
+    if len(given) != 1:
+        reader.fail("gas", sorted(given) if given else MISSING,
+                    "give exactly one of [gas.trace] (a measured trace) and [gas.combustion] (a parametric one)")
+        return None
+    key = given[0]
+    allowed = _TRACE_KEYS if key == "trace" else _COMBUSTION_KEYS
+    for name, value in table[key].items():
+        reader.unknown({name: value}, where[key][name], allowed)
+    # Problems of the sub-table as a whole go where the cylinder wrote it, or to the shared one.
+    section = next((w for w in where[key].values() if not w.startswith("gas.")), f"gas.{key}")
+    if key == "trace":
+        crankcase_key = key_path(where.get("crankcase_pressure", "gas"), "crankcase_pressure")
+        trace = _trace(reader, context, table["trace"], where["trace"], section, cycle, (crankcase, crankcase_key))
+    else:
+        trace = _combustion(reader, table["combustion"], where["combustion"], section, cycle)
+    if trace is None or not (math.isfinite(bore) and math.isfinite(crankcase)):
+        return None
+    gas = Gas(bore=bore, crankcase_pressure=crankcase, trace=trace)
+    # Cylinders of equal tables share one object: the model finds cylinders with the same trace by
+    # identity, without comparing the tables again at every evaluation.
+    same = next((g for g in context.gases if g == gas), None)
+    if same is None:
+        context.gases.append(gas)
+    return gas if same is None else same
+
+# -- measured traces ---------------------------------------------------
+
+
+def _trace(reader: Collector, context: SceneContext, table: dict, where: dict[str, str], section: str, cycle: int,
+           crankcase: tuple[float, str]) -> PressureTrace | None:
+    """A measured trace; ``where`` gives the section each key was written in,
+    ``crankcase`` the crankcase pressure [Pa] (nan if invalid) and its key path."""
+
+    def at(key: str) -> str:
+        return key_path(where.get(key, section), key)
+
+    interpolation = table.get("interpolation", INTERPOLATIONS[0])
+    if interpolation not in INTERPOLATIONS:
+        reader.fail(at("interpolation"), interpolation, f"must be one of {', '.join(map(repr, INTERPOLATIONS))}")
+        return None
+    units = table.get("units", {})
+    if not isinstance(units, Mapping):
+        reader.fail(at("units"), units, "must be a table such as { angle = \"deg\", pressure = \"bar\" }")
+        return None
+    reader.unknown(units, at("units"), set(TRACE_UNITS))
+    has_file, has_table = "file" in table, bool({"angle", "pressure"} & table.keys())
+    if has_file == has_table:
+        reader.fail(section, sorted(table) if table else MISSING,
+                    "give the trace either as a file or as angle and pressure lists, exactly one of them")
+        return None
+    columns = (_trace_file(reader, context, table["file"], at, units) if has_file
+               else _trace_inline(reader, table, at, units))
+    if columns is None:
+        return None
+    if len(columns.angle) != len(columns.pressure):
+        reader.fail(columns.key or at("pressure"), f"{len(columns.angle)} angles, {len(columns.pressure)} pressures",
+                    "angle and pressure must have the same length")
+        return None
+    factors = [to_si(f"1 {columns.units[d]}", d) for d in _COLUMNS]
+    checked = _check_table(reader, np.asarray(columns.angle, float) * factors[0],
+                           np.asarray(columns.pressure, float) * factors[1], cycle, columns, at)
+    if checked is None or not _check_level(reader, checked[1], crankcase, columns, at):
+        return None
+    if not (checked[1] >= MIN_TRACE_PRESSURE).all():  # (a peak in range with a point near 0: not absolute)
+        i = int(np.argmax(~(checked[1] >= MIN_TRACE_PRESSURE)))
+        reader.fail(columns.key or at("pressure"), f"{checked[1][i]:.6g} Pa at point {i + 1}",
+                    f"{columns.source + ': ' if columns.key else ''}absolute pressures must be at least "
+                    f"{MIN_TRACE_PRESSURE:g} Pa (1 mbar): are these gauge pressures? add the ambient pressure")
+        return None
+    return PressureTrace(angle=tuple(checked[0].tolist()), pressure=tuple(checked[1].tolist()),
+                         interpolation=interpolation, source=columns.source)
+
+
+def _trace_inline(reader: Collector, table: Mapping, at, units: Mapping) -> _Columns | None:
+    """The inline ``angle`` and ``pressure`` lists with their units from
+    ``units``, which must name both: a bare list of numbers is refused."""
+    lists = {}
+    for name in _COLUMNS:
+        values = table.get(name, MISSING)
+        if values is MISSING:
+            reader.fail(at(name), MISSING, "missing: a trace needs both angle and pressure lists")
+            return None
+        if (not isinstance(values, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                                                for v in values)):
+            reader.fail(at(name), values, "must be a list of numbers (units in trace.units)")
+            return None
+        lists[name] = values
+    found = {}
+    for name in _COLUMNS:
+        if name not in units:
+            reader.fail(at(name), f"{len(lists[name])} numbers",
+                        f"no unit: {_units_fix(at('units'), name)}{_which_units(name)}")
+        elif _unknown_unit(name, units[name]):
+            reader.fail(key_path(at("units"), name), units[name], _unknown_unit(name, units[name]))
         else:
-            trace = self.combustion(table["combustion"], where["combustion"], section, cycle)
-        if trace is None or not (math.isfinite(bore) and math.isfinite(crankcase)):
-            return None
-        gas = Gas(bore=bore, crankcase_pressure=crankcase, trace=trace)
-        # Cylinders of equal tables share one object: the model finds cylinders with the same trace by
-        # identity, without comparing the tables again at every evaluation.
-        same = next((g for g in self.gases if g == gas), None)
-        if same is None:
-            self.gases.append(gas)
-        return gas if same is None else same
+            found[name] = units[name]
+    if len(found) < len(_COLUMNS):
+        return None
+    return _Columns(lists["angle"], lists["pressure"], "inline", None, found,
+                    names={n: f"the {n} list" for n in _COLUMNS},
+                    fixes={n: f"set {key_path(at('units'), n)} = \"{{unit}}\"" for n in _COLUMNS})
 
-    # -- measured traces ---------------------------------------------------
 
-    def trace(self, table: dict, where: dict[str, str], section: str, cycle: int,
-              crankcase: tuple[float, str]) -> PressureTrace | None:
-        """A measured trace; ``where`` gives the section each key was written in,
-        ``crankcase`` the crankcase pressure [Pa] (nan if invalid) and its key path."""
+def _trace_file(reader: Collector, context: SceneContext, name: Any, at, units: Mapping) -> _Columns | None:
+    """The two columns of a CSV trace with their units, each from the
+    header (``angle [deg]``) or else from ``units``; a column with neither
+    is refused."""
+    key = at("file")
+    if not isinstance(name, str):
+        reader.fail(key, name, "must be a path (a string)")
+        return None
+    path = Path(name) if Path(name).is_absolute() else context.base / name
+    text = _trace_text(reader, context, name, path, key)
+    if text is None:
+        return None
+    angle, pressure, header = [], [], None
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        cells = [c.strip() for c in re.split(r"[,;\t]", stripped)] if re.search(r"[,;\t]", stripped) \
+            else stripped.split()
+        if header is None and not angle and _numbers(cells) is None:
+            header = cells
+            continue
+        values = _numbers(cells)
+        if values is None or len(values) != 2:
+            reader.fail(key, name, f"{path}, line {number}: {_bad_row(cells, values, bool(angle))}")
+            return None
+        if len(angle) == MAX_TRACE_POINTS:
+            reader.fail(key, name, f"{path}: more than {MAX_TRACE_POINTS} points: not a measured trace of one "
+                        "cycle (0.01° steps over 720° are 72 000): resample it")
+            return None
+        angle.append(values[0])
+        pressure.append(values[1])
+    return _file_units(reader, angle, pressure, header, (name, str(path)), at, units)
 
-        def at(key: str) -> str:
-            return _join(where.get(key, section), key)
 
-        interpolation = table.get("interpolation", INTERPOLATIONS[0])
-        if interpolation not in INTERPOLATIONS:
-            self.fail(at("interpolation"), interpolation, f"must be one of {', '.join(map(repr, INTERPOLATIONS))}")
+def _trace_text(reader: Collector, context: SceneContext, name: str, path: Path, key: str) -> str | None:
+    """The text of the trace file written ``name`` (``path``, relative to
+    the scene's folder): from the files given to the reader, else read
+    once from the file system within the rules of
+    :mod:`.source_files`; None after a problem."""
+    if name in context.read:  # cylinders sharing the [gas] table share its file: read it once
+        return context.read[name]
+    if context.given is not None:
+        if name not in context.given:
+            reader.fail(key, name, "not among the trace files stored with the scene (the reader was given the "
+                        f"files {', '.join(map(repr, sorted(context.given))) or 'none'} and reads no other)")
             return None
-        units = table.get("units", {})
-        if not isinstance(units, Mapping):
-            self.fail(at("units"), units, "must be a table such as { angle = \"deg\", pressure = \"bar\" }")
+        text = context.given[name]
+    else:
+        try:
+            text = read_regular(resolve_trace(name, context.base, context.roots), MAX_TRACE_BYTES,
+                                "a trace file (CSV)")
+        except FileNotFoundError:
+            reader.fail(key, name, f"file not found: {path}")
             return None
-        self.unknown(units, at("units"), set(TRACE_UNITS))
-        has_file, has_table = "file" in table, bool({"angle", "pressure"} & table.keys())
-        if has_file == has_table:
-            self.fail(section, sorted(table) if table else _MISSING,
-                      "give the trace either as a file or as angle and pressure lists, exactly one of them")
+        except FileRefused as exc:
+            reader.fail(key, name, f"{path} {exc}")
             return None
-        columns = self.trace_file(table["file"], at, units) if has_file else self.trace_inline(table, at, units)
-        if columns is None:
-            return None
-        if len(columns.angle) != len(columns.pressure):
-            self.fail(columns.key or at("pressure"), f"{len(columns.angle)} angles, {len(columns.pressure)} pressures",
-                      "angle and pressure must have the same length")
-            return None
-        factors = [to_si(f"1 {columns.units[d]}", d) for d in _COLUMNS]
-        checked = self.check_table(np.asarray(columns.angle, float) * factors[0],
-                                   np.asarray(columns.pressure, float) * factors[1], cycle, columns, at)
-        if checked is None or not self.check_level(checked[1], crankcase, columns, at):
-            return None
-        if not (checked[1] >= MIN_TRACE_PRESSURE).all():  # (a peak in range with a point near 0: not absolute)
-            i = int(np.argmax(~(checked[1] >= MIN_TRACE_PRESSURE)))
-            self.fail(columns.key or at("pressure"), f"{checked[1][i]:.6g} Pa at point {i + 1}",
-                      f"{columns.source + ': ' if columns.key else ''}absolute pressures must be at least "
-                      f"{MIN_TRACE_PRESSURE:g} Pa (1 mbar): are these gauge pressures? add the ambient pressure")
-            return None
-        return PressureTrace(angle=tuple(checked[0].tolist()), pressure=tuple(checked[1].tolist()),
-                             interpolation=interpolation, source=columns.source)
+    context.read[name] = text
+    return text
 
-    def trace_inline(self, table: Mapping, at, units: Mapping) -> _Columns | None:
-        """The inline ``angle`` and ``pressure`` lists with their units from
-        ``units``, which must name both: a bare list of numbers is refused."""
-        lists = {}
-        for name in _COLUMNS:
-            values = table.get(name, _MISSING)
-            if values is _MISSING:
-                self.fail(at(name), _MISSING, "missing: a trace needs both angle and pressure lists")
-                return None
-            if (not isinstance(values, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                                                    for v in values)):
-                self.fail(at(name), values, "must be a list of numbers (units in trace.units)")
-                return None
-            lists[name] = values
-        found = {}
-        for name in _COLUMNS:
-            if name not in units:
-                self.fail(at(name), f"{len(lists[name])} numbers",
-                          f"no unit: {_units_fix(at('units'), name)}{_which_units(name)}")
-            elif _unknown_unit(name, units[name]):
-                self.fail(_join(at("units"), name), units[name], _unknown_unit(name, units[name]))
-            else:
-                found[name] = units[name]
-        if len(found) < len(_COLUMNS):
-            return None
-        return _Columns(lists["angle"], lists["pressure"], "inline", None, found,
-                        names={n: f"the {n} list" for n in _COLUMNS},
-                        fixes={n: f"set {_join(at('units'), n)} = \"{{unit}}\"" for n in _COLUMNS})
 
-    def trace_file(self, name: Any, at, units: Mapping) -> _Columns | None:
-        """The two columns of a CSV trace with their units, each from the
-        header (``angle [deg]``) or else from ``units``; a column with neither
-        is refused."""
-        key = at("file")
-        if not isinstance(name, str):
-            self.fail(key, name, "must be a path (a string)")
-            return None
-        path = Path(name) if Path(name).is_absolute() else self.base / name
-        text = self.trace_text(name, path, key)
-        if text is None:
-            return None
-        angle, pressure, header = [], [], None
-        for number, line in enumerate(text.splitlines(), start=1):
-            stripped = line.strip()
-            if not stripped or stripped.startswith("#"):
-                continue
-            cells = [c.strip() for c in re.split(r"[,;\t]", stripped)] if re.search(r"[,;\t]", stripped) \
-                else stripped.split()
-            if header is None and not angle and _numbers(cells) is None:
-                header = cells
-                continue
-            values = _numbers(cells)
-            if values is None or len(values) != 2:
-                self.fail(key, name, f"{path}, line {number}: {_bad_row(cells, values, bool(angle))}")
-                return None
-            if len(angle) == MAX_TRACE_POINTS:
-                self.fail(key, name, f"{path}: more than {MAX_TRACE_POINTS} points: not a measured trace of one "
-                          "cycle (0.01° steps over 720° are 72 000): resample it")
-                return None
-            angle.append(values[0])
-            pressure.append(values[1])
-        return self.file_units(angle, pressure, header, (name, str(path)), at, units)
+def _file_units(reader: Collector, angle: list, pressure: list, header: list[str] | None, name: tuple[str, str], at,
+                units: Mapping) -> _Columns | None:
+    """The columns of a file (``name``: as written, resolved) with the unit
+    of each: from its header cell or, where the cell names none, from
+    ``units`` (the two must agree). None after a problem."""
+    cells = list(header or []) + [""] * len(_COLUMNS)
+    read = [_column_unit(reader, i, cells[i], header is not None, name, at, units) for i in range(len(_COLUMNS))]
+    if any(r is None for r in read):
+        return None
+    units, names, fixes = ({d: r[j] for d, r in zip(_COLUMNS, read)} for j in range(3))  # (unit, name, fix)
+    return _Columns(angle, pressure, name[1], at("file"), units, names, fixes, written=name[0])
 
-    def trace_text(self, name: str, path: Path, key: str) -> str | None:
-        """The text of the trace file written ``name`` (``path``, relative to
-        the scene's folder): from the files given to the reader, else read
-        once from the file system within the rules of
-        :mod:`.source_files`; None after a problem."""
-        if name in self.files:  # cylinders sharing the [gas] table share its file: read it once
-            return self.files[name]
-        if self.given is not None:
-            if name not in self.given:
-                self.fail(key, name, "not among the trace files stored with the scene (the reader was given the "
-                          f"files {', '.join(map(repr, sorted(self.given))) or 'none'} and reads no other)")
-                return None
-            text = self.given[name]
-        else:
-            try:
-                text = read_regular(resolve_trace(name, self.base, self.roots), MAX_TRACE_BYTES,
-                                    "a trace file (CSV)")
-            except FileNotFoundError:
-                self.fail(key, name, f"file not found: {path}")
-                return None
-            except FileRefused as exc:
-                self.fail(key, name, f"{path} {exc}")
-                return None
-        self.files[name] = text
-        return text
 
-    def file_units(self, angle: list, pressure: list, header: list[str] | None, name: tuple[str, str], at,
-                   units: Mapping) -> _Columns | None:
-        """The columns of a file (``name``: as written, resolved) with the unit
-        of each: from its header cell or, where the cell names none, from
-        ``units`` (the two must agree). None after a problem."""
-        cells = list(header or []) + [""] * len(_COLUMNS)
-        read = [self.column_unit(i, cells[i], header is not None, name, at, units) for i in range(len(_COLUMNS))]
-        if any(r is None for r in read):
-            return None
-        units, names, fixes = ({d: r[j] for d, r in zip(_COLUMNS, read)} for j in range(3))  # (unit, name, fix)
-        return _Columns(angle, pressure, name[1], at("file"), units, names, fixes, written=name[0])
-
-    def column_unit(self, index: int, cell: str, has_header: bool, name: tuple[str, str], at,
-                    units: Mapping) -> tuple[str, str, str] | None:
-        """The unit of a file's column ``index`` (header ``cell``), how
-        messages name the column and how to change its unit; None after a
-        problem (no unit, an unknown one, or header and ``units`` disagreeing)."""
-        dimension, (written, path), key = _COLUMNS[index], name, at("file")
-        label = f"{path}, column {index + 1} " + (f"{_token(cell)!r}" if cell else f"({dimension}, no header)")
-        units_key = _join(at("units"), dimension)
-        match, given = _HEADER_UNITS.match(cell), units.get(dimension)
-        if match:
-            unit, bad = match.group(2), _unknown_unit(dimension, match.group(2))
-            if given is not None and given != unit:
-                bad = f"the header gives {dimension} in {unit!r} but {units_key} says {given!r}"
-            fix = f"write its header as \"{match.group(1) or dimension} [{{unit}}]\""
-        elif given is not None:
-            unit, bad, fix = given, _unknown_unit(dimension, given), f"set {units_key} = \"{{unit}}\""
-            if bad:
-                self.fail(units_key, given, bad)
-                return None
-        else:
-            bad = (f"no unit: {_header_fix(cell or dimension, dimension, has_header)} or "
-                   f"{_units_fix(at('units'), dimension)}{_which_units(dimension)}")
+def _column_unit(reader: Collector, index: int, cell: str, has_header: bool, name: tuple[str, str], at,
+                 units: Mapping) -> tuple[str, str, str] | None:
+    """The unit of a file's column ``index`` (header ``cell``), how
+    messages name the column and how to change its unit; None after a
+    problem (no unit, an unknown one, or header and ``units`` disagreeing)."""
+    dimension, (written, path), key = _COLUMNS[index], name, at("file")
+    label = f"{path}, column {index + 1} " + (f"{_token(cell)!r}" if cell else f"({dimension}, no header)")
+    units_key = key_path(at("units"), dimension)
+    match, given = _HEADER_UNITS.match(cell), units.get(dimension)
+    if match:
+        unit, bad = match.group(2), _unknown_unit(dimension, match.group(2))
+        if given is not None and given != unit:
+            bad = f"the header gives {dimension} in {unit!r} but {units_key} says {given!r}"
+        fix = f"write its header as \"{match.group(1) or dimension} [{{unit}}]\""
+    elif given is not None:
+        unit, bad, fix = given, _unknown_unit(dimension, given), f"set {units_key} = \"{{unit}}\""
         if bad:
-            self.fail(key, written, f"{label}: {bad}")
+            reader.fail(units_key, given, bad)
             return None
-        return unit, label, fix
+    else:
+        bad = (f"no unit: {_header_fix(cell or dimension, dimension, has_header)} or "
+               f"{_units_fix(at('units'), dimension)}{_which_units(dimension)}")
+    if bad:
+        reader.fail(key, written, f"{label}: {bad}")
+        return None
+    return unit, label, fix
 
-    def check_table(self, angle: np.ndarray, pressure: np.ndarray, cycle: int, columns: _Columns,
-                    at) -> tuple[np.ndarray, np.ndarray] | None:
-        """The table in SI checked to describe one cycle, without the closing
-        endpoint if it was given. The problems of a file go to its key, naming
-        the file; else to the angle or pressure list."""
-        period = math.pi * cycle
-        cycle_text = f"{180 * cycle}°"
-        akey, pkey = columns.key or at("angle"), columns.key or at("pressure")
-        where = f"{columns.source}: " if columns.key else ""
-        if not MIN_TRACE_POINTS <= angle.size <= MAX_TRACE_POINTS:
-            self.fail(akey, f"{angle.size} points", f"{where}a trace needs at least {MIN_TRACE_POINTS} points"
-                      if angle.size < MIN_TRACE_POINTS else f"{where}a trace has at most {MAX_TRACE_POINTS} points")
-            return None
-        if not (np.isfinite(angle).all() and np.isfinite(pressure).all()):
-            self.fail(akey, "nan or inf", f"{where}must be finite")
-            return None
-        if not (np.abs(angle) <= MAGNITUDES["angle"].high).all():
-            self.fail(akey, f"{math.degrees(float(np.max(np.abs(angle)))):.6g}°", f"{where}angles must lie within "
-                      "±3600° (the angle range); a trace's angles span one cycle from firing TDC")
-            return None
-        steps = np.diff(angle)
-        if not (steps > 0).all():
-            i = int(np.argmax(steps <= 0))
-            self.fail(akey, f"{math.degrees(angle[i]):.6g}°, {math.degrees(angle[i + 1]):.6g}° (points {i + 1}, "
-                      f"{i + 2})", f"{where}angles must be strictly increasing")
-            return None
-        if not (pressure > 0).all():
-            i = int(np.argmax(~(pressure > 0)))
-            self.fail(pkey, f"{pressure[i]:.6g} Pa at point {i + 1}", f"{where}absolute pressures must be positive")
-            return None
 
-        span = angle[-1] - angle[0]
-        largest = float(steps.max())
-        if abs(span - period) <= _ENDPOINT_RTOL * largest:
-            # The table includes its endpoint: it must close on itself.
-            if abs(pressure[-1] - pressure[0]) > PERIODIC_RTOL * max(abs(pressure[0]), abs(pressure[-1])):
-                self.fail(pkey, f"{pressure[0]:.9g} Pa at {math.degrees(angle[0]):.6g}°, {pressure[-1]:.9g} Pa at "
-                          f"{math.degrees(angle[-1]):.6g}°",
-                          f"{where}not periodic: the two ends of the {cycle_text} cycle differ by more than "
-                          f"{PERIODIC_RTOL:g} relative")
-                return None
-            return angle[:-1], pressure[:-1]
-        extent = f"{math.degrees(angle[0]):.6g}° to {math.degrees(angle[-1]):.6g}°"
-        if span > period:
-            self.fail(akey, extent, f"{where}trace longer than a cycle: it spans {math.degrees(span):.6g}°, one "
-                      f"cycle is {cycle_text} (angles read in {columns.units['angle']}){_cycle_hint(span, largest, 4)}")
+def _check_table(reader: Collector, angle: np.ndarray, pressure: np.ndarray, cycle: int, columns: _Columns,
+                 at) -> tuple[np.ndarray, np.ndarray] | None:
+    """The table in SI checked to describe one cycle, without the closing
+    endpoint if it was given. The problems of a file go to its key, naming
+    the file; else to the angle or pressure list."""
+    period = math.pi * cycle
+    cycle_text = f"{180 * cycle}°"
+    akey, pkey = columns.key or at("angle"), columns.key or at("pressure")
+    where = f"{columns.source}: " if columns.key else ""
+    if not MIN_TRACE_POINTS <= angle.size <= MAX_TRACE_POINTS:
+        reader.fail(akey, f"{angle.size} points", f"{where}a trace needs at least {MIN_TRACE_POINTS} points"
+                    if angle.size < MIN_TRACE_POINTS else f"{where}a trace has at most {MAX_TRACE_POINTS} points")
+        return None
+    if not (np.isfinite(angle).all() and np.isfinite(pressure).all()):
+        reader.fail(akey, "nan or inf", f"{where}must be finite")
+        return None
+    if not (np.abs(angle) <= MAGNITUDES["angle"].high).all():
+        reader.fail(akey, f"{math.degrees(float(np.max(np.abs(angle)))):.6g}°", f"{where}angles must lie within "
+                    "±3600° (the angle range); a trace's angles span one cycle from firing TDC")
+        return None
+    steps = np.diff(angle)
+    if not (steps > 0).all():
+        i = int(np.argmax(steps <= 0))
+        reader.fail(akey, f"{math.degrees(angle[i]):.6g}°, {math.degrees(angle[i + 1]):.6g}° (points {i + 1}, "
+                    f"{i + 2})", f"{where}angles must be strictly increasing")
+        return None
+    if not (pressure > 0).all():
+        i = int(np.argmax(~(pressure > 0)))
+        reader.fail(pkey, f"{pressure[i]:.6g} Pa at point {i + 1}", f"{where}absolute pressures must be positive")
+        return None
+
+    span = angle[-1] - angle[0]
+    largest = float(steps.max())
+    if abs(span - period) <= _ENDPOINT_RTOL * largest:
+        # The table includes its endpoint: it must close on itself.
+        if abs(pressure[-1] - pressure[0]) > PERIODIC_RTOL * max(abs(pressure[0]), abs(pressure[-1])):
+            reader.fail(pkey, f"{pressure[0]:.9g} Pa at {math.degrees(angle[0]):.6g}°, {pressure[-1]:.9g} Pa at "
+                        f"{math.degrees(angle[-1]):.6g}°",
+                        f"{where}not periodic: the two ends of the {cycle_text} cycle differ by more than "
+                        f"{PERIODIC_RTOL:g} relative")
             return None
-        gap = period - span
-        if gap > MAX_CLOSING_GAP * largest:
-            self.fail(akey, extent, f"{where}trace shorter than a cycle: the gap closing the {cycle_text} cycle is "
-                      f"{math.degrees(gap):.6g}°, more than {MAX_CLOSING_GAP:g} x the largest spacing "
-                      f"({math.degrees(largest):.6g}°){_cycle_hint(span, largest, 2)}")
-            return None
-        return angle, pressure
+        return angle[:-1], pressure[:-1]
+    extent = f"{math.degrees(angle[0]):.6g}° to {math.degrees(angle[-1]):.6g}°"
+    if span > period:
+        reader.fail(akey, extent, f"{where}trace longer than a cycle: it spans {math.degrees(span):.6g}°, one "
+                    f"cycle is {cycle_text} (angles read in {columns.units['angle']}){_cycle_hint(span, largest, 4)}")
+        return None
+    gap = period - span
+    if gap > MAX_CLOSING_GAP * largest:
+        reader.fail(akey, extent, f"{where}trace shorter than a cycle: the gap closing the {cycle_text} cycle is "
+                    f"{math.degrees(gap):.6g}°, more than {MAX_CLOSING_GAP:g} x the largest spacing "
+                    f"({math.degrees(largest):.6g}°){_cycle_hint(span, largest, 2)}")
+        return None
+    return angle, pressure
 
-    def check_level(self, pressure: np.ndarray, crankcase: tuple[float, str], columns: _Columns, at) -> bool:
-        """Whether the level of a trace [Pa] can be a cylinder pressure: its
-        peak above the crankcase pressure and within [MIN_PEAK_PRESSURE,
-        MAX_PEAK_PRESSURE] (else a problem), and within [LOW_PEAK_PRESSURE,
-        HIGH_PEAK_PRESSURE] (else a :class:`TraceWarning`). Most often a
-        trace failing it is in another unit than the one declared."""
-        peak, unit = float(pressure.max()), columns.units["pressure"]
-        raw = peak / to_si(f"1 {unit}", "pressure")
-        key, name = columns.key or at("pressure"), columns.names["pressure"]
-        likely = _likely_unit(raw, unit, crankcase[0], columns.fixes["pressure"])
-        shown = f"{_bar(peak)} bar" + (f" ({raw:.6g} {unit})" if unit != "bar" else "")
-        rule = _level_problem(peak, crankcase, shown)
-        if rule is None:
-            if not LOW_PEAK_PRESSURE <= peak <= HIGH_PEAK_PRESSURE:
-                self.warn(TraceWarning(
-                    f"{self.source}: {key}: {name} peaks at {shown}, unusual for an engine (most peak between "
-                    f"{_bar(LOW_PEAK_PRESSURE)} and {_bar(HIGH_PEAK_PRESSURE)} bar): check its unit{likely}"))
-            return True
-        value = columns.written if columns.key else f"maximum {raw:.6g} {unit}"
-        self.fail(key, value, f"{name}: {rule}; the pressure unit is likely wrong"
-                  f"{likely or ': check the unit its numbers are in, and that they are absolute pressures'}")
-        return False
 
-    def warn(self, warning: Warning) -> None:
-        """Keep a warning for when the scene is valid, once (a shared trace is read per cylinder).
-        A Warning instance keeps its own category when the reader passes it to ``warnings.warn``."""
-        if str(warning) not in map(str, self.warnings):
-            self.warnings.append(warning)
+def _check_level(reader: Collector, pressure: np.ndarray, crankcase: tuple[float, str], columns: _Columns, at) -> bool:
+    """Whether the level of a trace [Pa] can be a cylinder pressure: its
+    peak above the crankcase pressure and within [MIN_PEAK_PRESSURE,
+    MAX_PEAK_PRESSURE] (else a problem), and within [LOW_PEAK_PRESSURE,
+    HIGH_PEAK_PRESSURE] (else a :class:`TraceWarning`). Most often a
+    trace failing it is in another unit than the one declared."""
+    peak, unit = float(pressure.max()), columns.units["pressure"]
+    raw = peak / to_si(f"1 {unit}", "pressure")
+    key, name = columns.key or at("pressure"), columns.names["pressure"]
+    likely = _likely_unit(raw, unit, crankcase[0], columns.fixes["pressure"])
+    shown = f"{_bar(peak)} bar" + (f" ({raw:.6g} {unit})" if unit != "bar" else "")
+    rule = _level_problem(peak, crankcase, shown)
+    if rule is None:
+        if not LOW_PEAK_PRESSURE <= peak <= HIGH_PEAK_PRESSURE:
+            reader.warn(TraceWarning(
+                f"{reader.source}: {key}: {name} peaks at {shown}, unusual for an engine (most peak between "
+                f"{_bar(LOW_PEAK_PRESSURE)} and {_bar(HIGH_PEAK_PRESSURE)} bar): check its unit{likely}"))
+        return True
+    value = columns.written if columns.key else f"maximum {raw:.6g} {unit}"
+    reader.fail(key, value, f"{name}: {rule}; the pressure unit is likely wrong"
+                f"{likely or ': check the unit its numbers are in, and that they are absolute pressures'}")
+    return False
 
-    # -- parametric traces -------------------------------------------------
+# -- parametric traces -------------------------------------------------
 
-    def combustion(self, table: dict, where: dict[str, str], section: str, cycle: int) -> Combustion | None:
-        """A parametric trace; ``where`` gives the section each key was written in."""
 
-        def q(key: str, dimension: str, default: Any = _MISSING, **checks) -> float:
-            return self.quantity(table, key, where.get(key, section), dimension, default=default, **checks)
+def _combustion(reader: Collector, table: dict, where: dict[str, str], section: str, cycle: int) -> Combustion | None:
+    """A parametric trace; ``where`` gives the section each key was written in."""
 
-        before = len(self.problems)
-        if cycle != 4:
-            self.fail(section, _MISSING, "the parametric trace models a four-stroke cycle (engine.cycle = 4); "
-                      "give a two-stroke a measured [gas.trace]")
-        ratio = q("compression_ratio", "dimensionless")  # in (1, 100], as every key in its range (.ranges)
-        intake = q("intake_pressure", "pressure", positive=True)
-        exhaust = q("exhaust_pressure", "pressure", positive=True) if "exhaust_pressure" in table else intake
-        exponents = []
-        for key, default in (("compression_exponent", 1.35), ("expansion_exponent", 1.30)):
-            exponents.append(q(key, "dimensionless", default=default))
-        start = q("start", "angle")
-        duration = q("duration", "angle", positive=True)
-        if math.isfinite(start) and math.isfinite(duration) and duration > 0 and not (
-                -math.pi < start and start + duration < math.pi):
-            self.fail(_join(where.get("duration", section), "duration"), table.get("duration"),
-                      f"combustion from {math.degrees(start):.6g}° for {math.degrees(duration):.6g}° must lie between "
-                      "inlet valve closing (-180°) and exhaust valve opening (+180°)")
-        shape = q("shape", "dimensionless", default=2.0, nonnegative=True)
-        efficiency = q("efficiency", "dimensionless", default=6.908, positive=True)
-        targets = [k for k in ("peak_pressure", "imep") if k in table]
-        peak = imep = None
-        if len(targets) != 1:
-            self.fail(section, sorted(targets) if targets else _MISSING,
-                      "give exactly one target for the heat release: peak_pressure or imep")
-        elif targets[0] == "peak_pressure":
-            peak = q("peak_pressure", "pressure", positive=True)
-        else:
-            imep = q("imep", "pressure", positive=True)
-        if len(self.problems) > before:
-            return None
-        return Combustion(compression_ratio=ratio, intake_pressure=intake, exhaust_pressure=exhaust,
-                          compression_exponent=exponents[0], expansion_exponent=exponents[1], start=start,
-                          duration=duration, shape=shape, efficiency=efficiency, peak_pressure=peak, imep=imep)
+    def q(key: str, dimension: str, default: Any = MISSING, **checks) -> float:
+        return reader.quantity(table, key, where.get(key, section), dimension, default=default, **checks)
+
+    before = len(reader.problems)
+    if cycle != 4:
+        reader.fail(section, MISSING, "the parametric trace models a four-stroke cycle (engine.cycle = 4); "
+                    "give a two-stroke a measured [gas.trace]")
+    ratio = q("compression_ratio", "dimensionless")  # in (1, 100], as every key in its range (.ranges)
+    intake = q("intake_pressure", "pressure", positive=True)
+    exhaust = q("exhaust_pressure", "pressure", positive=True) if "exhaust_pressure" in table else intake
+    exponents = []
+    for key, default in (("compression_exponent", 1.35), ("expansion_exponent", 1.30)):
+        exponents.append(q(key, "dimensionless", default=default))
+    start = q("start", "angle")
+    duration = q("duration", "angle", positive=True)
+    if math.isfinite(start) and math.isfinite(duration) and duration > 0 and not (
+            -math.pi < start and start + duration < math.pi):
+        reader.fail(key_path(where.get("duration", section), "duration"), table.get("duration"),
+                    f"combustion from {math.degrees(start):.6g}° for {math.degrees(duration):.6g}° must lie between "
+                    "inlet valve closing (-180°) and exhaust valve opening (+180°)")
+    shape = q("shape", "dimensionless", default=2.0, nonnegative=True)
+    efficiency = q("efficiency", "dimensionless", default=6.908, positive=True)
+    targets = [k for k in ("peak_pressure", "imep") if k in table]
+    peak = imep = None
+    if len(targets) != 1:
+        reader.fail(section, sorted(targets) if targets else MISSING,
+                    "give exactly one target for the heat release: peak_pressure or imep")
+    elif targets[0] == "peak_pressure":
+        peak = q("peak_pressure", "pressure", positive=True)
+    else:
+        imep = q("imep", "pressure", positive=True)
+    if len(reader.problems) > before:
+        return None
+    return Combustion(compression_ratio=ratio, intake_pressure=intake, exhaust_pressure=exhaust,
+                      compression_exponent=exponents[0], expansion_exponent=exponents[1], start=start,
+                      duration=duration, shape=shape, efficiency=efficiency, peak_pressure=peak, imep=imep)
 
 
 def _unknown_unit(dimension: str, unit: Any) -> str | None:
@@ -479,7 +482,7 @@ def _unknown_unit(dimension: str, unit: Any) -> str | None:
 
 def _units_fix(units_key: str, dimension: str) -> str:
     """How to give a column's unit in the trace's ``units`` table."""
-    return f"set {_join(units_key, dimension)} = \"{_EXAMPLE_UNITS[dimension]}\""
+    return f"set {key_path(units_key, dimension)} = \"{_EXAMPLE_UNITS[dimension]}\""
 
 
 def _header_fix(label: str, dimension: str, has_header: bool) -> str:

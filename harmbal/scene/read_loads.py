@@ -11,9 +11,10 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from .collector import Collector
 from .elements import Shaft
 from .interfaces import GRAVITY, ElementLoads, LoadsRequest, Ramp, StaticLoad
-from .schema import _MISSING, _join
+from .schema import MISSING, key_path
 
 _LOADS_KEYS = {"main_bearings", "static_load", "element", "max_speed", "ramp"}
 _STATIC_KEYS = {"label", "force", "mass", "axial_position"}
@@ -21,93 +22,92 @@ _ELEMENT_KEYS = {"label", "bearings", "inertia", "fasteners", "static_load"}
 _RAMP_KEYS = {"from", "to", "time"}
 
 
-class LoadTables:
-    """[loads]; mixed into the scene reader, whose primitives (``fail``,
-    ``table``, ``quantity``, ``array``, ...) it uses."""
-
-    def loads(self, data: Mapping, shafts: tuple[Shaft, ...]) -> LoadsRequest | None:
-        """The [loads] table, None if the scene has none; element labels are
-        resolved against ``shafts`` (the scene's balancer elements)."""
-        if "loads" not in data:
-            return None
-        table = self.table(data, "loads", "loads", _LOADS_KEYS)
-        bearings: tuple[float, ...] = ()
-        if "main_bearings" in table:
-            raw = table["main_bearings"]
-            if not isinstance(raw, list) or len(raw) < 2:
-                self.fail("loads.main_bearings", raw, "must be a list of at least two axial positions")
-            else:
-                bearings = self.quantity_list(table, "main_bearings", "loads", "length", len(raw), _MISSING)
-                self._distinct("loads.main_bearings", raw, bearings)
-        static = self.static_loads(table.get("static_load", []), "loads.static_load")
-        if static and not bearings:
-            self.fail("loads.static_load", table["static_load"], "needs loads.main_bearings (the crankshaft's "
-                      "bearings carry it)")
-        elements = tuple(self.element(path, entry, shafts) for path, entry in self.array(table.get("element", []),
+def read_loads(reader: Collector, data: Mapping, shafts: tuple[Shaft, ...]) -> LoadsRequest | None:
+    """The [loads] table, None if the scene has none; element labels are
+    resolved against ``shafts`` (the scene's balancer elements)."""
+    if "loads" not in data:
+        return None
+    table = reader.table(data, "loads", "loads", _LOADS_KEYS)
+    bearings: tuple[float, ...] = ()
+    if "main_bearings" in table:
+        raw = table["main_bearings"]
+        if not isinstance(raw, list) or len(raw) < 2:
+            reader.fail("loads.main_bearings", raw, "must be a list of at least two axial positions")
+        else:
+            bearings = reader.quantity_list(table, "main_bearings", "loads", "length", len(raw), MISSING)
+            _distinct(reader, "loads.main_bearings", raw, bearings)
+    static = _static_loads(reader, table.get("static_load", []), "loads.static_load")
+    if static and not bearings:
+        reader.fail("loads.static_load", table["static_load"], "needs loads.main_bearings (the crankshaft's "
+                    "bearings carry it)")
+    elements = tuple(_element(reader, path, entry, shafts) for path, entry in reader.array(table.get("element", []),
                                                                                            "loads.element"))
-        labels = [e.label for e in elements]
-        for label in sorted({x for x in labels if labels.count(x) > 1}):
-            self.fail("loads.element", label, "two [[loads.element]] entries name this element")
-        max_speed = (self.quantity(table, "max_speed", "loads", "speed", positive=True)
-                     if "max_speed" in table else None)
-        ramp = None
-        if "ramp" in table:
-            ramp_table = self.table(table, "ramp", "loads.ramp", _RAMP_KEYS)
-            start = self.quantity(ramp_table, "from", "loads.ramp", "speed", nonnegative=True)
-            end = self.quantity(ramp_table, "to", "loads.ramp", "speed", nonnegative=True)
-            time = self.quantity(ramp_table, "time", "loads.ramp", "time", positive=True)
-            ramp = Ramp(start, end, time)
-            if not any(e.inertia is not None for e in elements):
-                self.fail("loads.ramp", table["ramp"], "needs the inertia of at least one balancer element "
-                          "([[loads.element]] inertia)")
-        return LoadsRequest(bearings, static, elements, max_speed, ramp)
+    labels = [e.label for e in elements]
+    for label in sorted({x for x in labels if labels.count(x) > 1}):
+        reader.fail("loads.element", label, "two [[loads.element]] entries name this element")
+    max_speed = (reader.quantity(table, "max_speed", "loads", "speed", positive=True)
+                 if "max_speed" in table else None)
+    ramp = None
+    if "ramp" in table:
+        ramp_table = reader.table(table, "ramp", "loads.ramp", _RAMP_KEYS)
+        start = reader.quantity(ramp_table, "from", "loads.ramp", "speed", nonnegative=True)
+        end = reader.quantity(ramp_table, "to", "loads.ramp", "speed", nonnegative=True)
+        time = reader.quantity(ramp_table, "time", "loads.ramp", "time", positive=True)
+        ramp = Ramp(start, end, time)
+        if not any(e.inertia is not None for e in elements):
+            reader.fail("loads.ramp", table["ramp"], "needs the inertia of at least one balancer element "
+                        "([[loads.element]] inertia)")
+    return LoadsRequest(bearings, static, elements, max_speed, ramp)
 
-    def _distinct(self, key: str, raw: Any, positions: tuple[float, ...]) -> None:
-        finite = [p for p in positions if math.isfinite(p)]
-        if len(set(finite)) != len(finite):
-            self.fail(key, raw, "axial positions must be distinct")
 
-    def static_loads(self, raw: Any, path: str) -> tuple[StaticLoad, ...]:
-        """Static forces given as ``force`` = [y, z] or as a ``mass`` (its
-        weight, along −z), at an ``axial_position``."""
-        loads = []
-        for where, entry in self.array(raw, path):
-            self.unknown(entry, where, _STATIC_KEYS)
-            label = self.string(entry, "label", where, f"static load {len(loads) + 1}")
-            if ("force" in entry) == ("mass" in entry):
-                self.fail(where, sorted(entry), "give force = [y, z] or mass (its weight along −z), one of them")
-                force = (math.nan, math.nan)
-            elif "force" in entry:
-                force = self.quantity_list(entry, "force", where, "force", 2, _MISSING)
-            else:
-                force = (0.0, -GRAVITY * self.quantity(entry, "mass", where, "mass", positive=True))
-            x = self.quantity(entry, "axial_position", where, "length")
-            loads.append(StaticLoad(label, force, x))
-        return tuple(loads)
+def _distinct(reader: Collector, key: str, raw: Any, positions: tuple[float, ...]) -> None:
+    finite = [p for p in positions if math.isfinite(p)]
+    if len(set(finite)) != len(finite):
+        reader.fail(key, raw, "axial positions must be distinct")
 
-    def element(self, path: str, entry: Mapping, shafts: tuple[Shaft, ...]) -> ElementLoads:
-        """One [[loads.element]]: the balancer element it names (a Lanchester
-        pair's label names both its shafts) and its interface data."""
-        self.unknown(entry, path, _ELEMENT_KEYS)
-        label = self.string(entry, "label", path)
-        named = tuple(s for s in shafts if s.label == label or (s.label.startswith(label + " (")
-                                                                 and s.label.endswith("×)")))
-        if label and not named:
-            known = ", ".join(repr(s.label) for s in shafts) or "none"
-            self.fail(_join(path, "label"), label, f"names no balancer element of the scene (elements: {known})")
-        on_crank = any(s.on_crank for s in named)
-        bearings = None
-        if "bearings" in entry:
-            bearings = self.quantity_list(entry, "bearings", path, "length", 2, _MISSING)
-            self._distinct(_join(path, "bearings"), entry["bearings"], bearings)
-        inertia = self.quantity(entry, "inertia", path, "inertia", positive=True) if "inertia" in entry else None
-        fasteners = self.integer(entry, "fasteners", path, None, 1)
-        static = self.static_loads(entry.get("static_load", []), _join(path, "static_load"))
-        if on_crank:
-            for key in ("bearings", "static_load"):
-                if key in entry:
-                    self.fail(_join(path, key), entry[key], "the element turns with the crankshaft: its loads go "
-                              "to the main bearings (loads.main_bearings, loads.static_load)")
-        elif static and bearings is None:
-            self.fail(_join(path, "static_load"), entry["static_load"], "needs the shaft's bearings")
-        return ElementLoads(label, tuple(s.label for s in named), bearings, inertia, fasteners, static)
+
+def _static_loads(reader: Collector, raw: Any, path: str) -> tuple[StaticLoad, ...]:
+    """Static forces given as ``force`` = [y, z] or as a ``mass`` (its
+    weight, along −z), at an ``axial_position``."""
+    loads = []
+    for where, entry in reader.array(raw, path):
+        reader.unknown(entry, where, _STATIC_KEYS)
+        label = reader.string(entry, "label", where, f"static load {len(loads) + 1}")
+        if ("force" in entry) == ("mass" in entry):
+            reader.fail(where, sorted(entry), "give force = [y, z] or mass (its weight along −z), one of them")
+            force = (math.nan, math.nan)
+        elif "force" in entry:
+            force = reader.quantity_list(entry, "force", where, "force", 2, MISSING)
+        else:
+            force = (0.0, -GRAVITY * reader.quantity(entry, "mass", where, "mass", positive=True))
+        x = reader.quantity(entry, "axial_position", where, "length")
+        loads.append(StaticLoad(label, force, x))
+    return tuple(loads)
+
+
+def _element(reader: Collector, path: str, entry: Mapping, shafts: tuple[Shaft, ...]) -> ElementLoads:
+    """One [[loads.element]]: the balancer element it names (a Lanchester
+    pair's label names both its shafts) and its interface data."""
+    reader.unknown(entry, path, _ELEMENT_KEYS)
+    label = reader.string(entry, "label", path)
+    named = tuple(s for s in shafts if s.label == label or (s.label.startswith(label + " (")
+                                                            and s.label.endswith("×)")))
+    if label and not named:
+        known = ", ".join(repr(s.label) for s in shafts) or "none"
+        reader.fail(key_path(path, "label"), label, f"names no balancer element of the scene (elements: {known})")
+    on_crank = any(s.on_crank for s in named)
+    bearings = None
+    if "bearings" in entry:
+        bearings = reader.quantity_list(entry, "bearings", path, "length", 2, MISSING)
+        _distinct(reader, key_path(path, "bearings"), entry["bearings"], bearings)
+    inertia = reader.quantity(entry, "inertia", path, "inertia", positive=True) if "inertia" in entry else None
+    fasteners = reader.integer(entry, "fasteners", path, None, 1)
+    static = _static_loads(reader, entry.get("static_load", []), key_path(path, "static_load"))
+    if on_crank:
+        for key in ("bearings", "static_load"):
+            if key in entry:
+                reader.fail(key_path(path, key), entry[key], "the element turns with the crankshaft: its loads go "
+                            "to the main bearings (loads.main_bearings, loads.static_load)")
+    elif static and bearings is None:
+        reader.fail(key_path(path, "static_load"), entry["static_load"], "needs the shaft's bearings")
+    return ElementLoads(label, tuple(s.label for s in named), bearings, inertia, fasteners, static)

@@ -56,7 +56,7 @@ class Problem:
     rule: str
 
     def __str__(self) -> str:
-        shown = "" if self.value is _MISSING else f" = {self.value!r}"
+        shown = "" if self.value is MISSING else f" = {self.value!r}"
         return f"{self.source}: {self.key}{shown}: {self.rule}"
 
 
@@ -69,19 +69,24 @@ class SceneError(ValueError):
 
 
 class _Missing:
+    """The type of :data:`MISSING`."""
+
     def __repr__(self) -> str:
         return "<missing>"
 
 
-_MISSING = _Missing()
+#: A key the scene does not give: the default of the reader's primitives (a required key has none) and the
+#: value of a :class:`Problem` about a missing key or table.
+MISSING = _Missing()
 
 
-def _join(path: str, key: str) -> str:
+def key_path(path: str, key: str) -> str:
     """The key path of ``key`` inside the table at ``path`` ("" is the top level)."""
     return f"{path}.{key}" if path else key
 
 
-def _closest(word: str, options: set[str]) -> str | None:
+def closest_match(word: str, options: set[str]) -> str | None:
+    """The option nearest to a misspelt ``word`` (for "did you mean"), or None if none is close."""
     import difflib
 
     matches = difflib.get_close_matches(word, sorted(options), n=1, cutoff=0.6)

@@ -33,13 +33,39 @@ class _BadInput(Exception):
 
 
 def _parser() -> argparse.ArgumentParser:
+    """The command line's parser: one subcommand per ``_add_*_command``, then the
+    options several commands share (added last, so each command's help lists them last)."""
     parser = argparse.ArgumentParser(
         prog="harmbal",
         description="Harmonic-domain balancing analysis of reciprocating machines.",
     )
     parser.add_argument("--version", action="version", version=f"harmbal {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    run = _add_run_command(commands)
+    star = _add_stars_command(commands)
+    design = _add_design_command(commands)
+    check = _add_verify_command(commands)
+    rep = _add_report_command(commands)
+    loads = _add_loads_command(commands)
+    _add_bench_command(commands)
+    sweep = _add_sweep_command(commands)
+    _add_show_command(commands)
+    for command in (run, star, design, check, rep, sweep):
+        command.add_argument("--negligible", type=_negligible, metavar="FRACTION",
+                             help="components at or below FRACTION of one cylinder's share of the load scale are "
+                                  "negligible (default: the scene's [model] negligible, else 1e-3)")
+    for command in (run, star, design, check, rep, loads, sweep):
+        command.add_argument("--memory-budget", type=_budget_value("parse_size"), metavar="SIZE",
+                             help="refuse work estimated to need more memory, e.g. 16GiB or none (default: "
+                                  "$HARMBAL_MEMORY_BUDGET, else 4 GiB or half the available memory if less)")
+        command.add_argument("--time-budget", type=_budget_value("parse_duration"), metavar="DURATION",
+                             help="refuse work estimated to take longer, e.g. 2h or none (default: "
+                                  "$HARMBAL_TIME_BUDGET, else 10 min)")
+    return parser
 
+
+def _add_run_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal run`` (analyse a scene) to the subcommands."""
     run = commands.add_parser(
         "run", help="analyse a scene and print the free forces and moments per order",
         description="Simulate the exact shaking loads of a scene, decompose them into orders and print "
@@ -49,7 +75,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--output", type=Path, help="write the analysis to this netCDF archive")
     run.add_argument("--backend", choices=("scipy", "numpy", "pyfftw"), default="scipy", help="FFT backend")
     run.set_defaults(handler=_run)
+    return run
 
+
+def _add_stars_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal stars`` (crank stars and order-domain free vectors) to the subcommands."""
     star = commands.add_parser(
         "stars", help="crank stars, firing, and free force and moment per order (order domain)",
         description="Compute the crank stars and the free force and moment vectors of each order in the "
@@ -64,7 +94,11 @@ def _parser() -> argparse.ArgumentParser:
     star.add_argument("--verify", action="store_true",
                       help="also compare with the time-domain model; exit 1 if they disagree")
     star.set_defaults(handler=_stars)
+    return star
 
+
+def _add_design_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal design`` (design balancers) to the subcommands."""
     design = commands.add_parser(
         "design", help="design balancer elements order by order and write them into a new scene",
         description="Solve the scene's [design] table: per order, the unbalances (size and angle) of the candidate "
@@ -82,7 +116,11 @@ def _parser() -> argparse.ArgumentParser:
                         help="lever balancers: the exact linear programme (default) or, for comparison, the "
                              "source thesis's compass search")
     design.set_defaults(handler=_design)
+    return design
 
+
+def _add_verify_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal verify`` (verify balancers against the exact model) to the subcommands."""
     check = commands.add_parser(
         "verify", help="verify balancer elements against the exact model",
         description="Simulate the scene with and without its balancer elements by the exact time-domain model, "
@@ -97,7 +135,11 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--tolerance", type=_share, metavar="SHARE",
                        help="share of each value without balancers that may remain, e.g. 0.01 (default 0)")
     check.set_defaults(handler=_verify)
+    return check
 
+
+def _add_report_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal report`` (the HTML report) to the subcommands."""
     rep = commands.add_parser(
         "report", help="write a self-contained HTML report of a scene or an archive",
         description="Analyse a scene (or read an archive written by 'harmbal run -o') and write one HTML page "
@@ -110,7 +152,11 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--css", type=Path, metavar="FILE.css",
                      help="style rules added after the built-in ones (house fonts, colours, widths)")
     rep.set_defaults(handler=_report)
+    return rep
 
+
+def _add_loads_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal loads`` (bearing and interface loads) to the subcommands."""
     loads = commands.add_parser(
         "loads", help="bearing and interface loads: crank train joints, main bearings, balancer bearings and fasteners; "
                       "clearance between moving parts",
@@ -124,7 +170,11 @@ def _parser() -> argparse.ArgumentParser:
     loads.add_argument("scene", type=Path, help="scene file (TOML)")
     loads.add_argument("-o", "--output", type=Path, help="write the loads to this netCDF archive")
     loads.set_defaults(handler=_loads)
+    return loads
 
+
+def _add_bench_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal bench`` (accuracy against cost) to the subcommands."""
     from .bench import ENGINES, FAMILIES, LAMBDAS
 
     bench = commands.add_parser(
@@ -144,7 +194,11 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="one short timing run per case (rough times)")
     bench.add_argument("--engines-dir", type=Path, help="folder with the bundled scenes (default datasets/engines)")
     bench.set_defaults(handler=_bench)
+    return bench
 
+
+def _add_sweep_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal sweep`` (grids and Monte Carlo of scene keys) to the subcommands."""
     sweep = commands.add_parser(
         "sweep", help="free forces and moments over a grid of scene keys, or under production tolerances",
         description="Vary numeric keys of the scene (key paths as written in the file: geometry.rod_length, "
@@ -187,25 +241,18 @@ def _parser() -> argparse.ArgumentParser:
                             "of a grid (a map) or the first key; for Monte Carlo its histogram, CDF and the "
                             "tolerances ranked")
     sweep.set_defaults(handler=_sweep)
+    return sweep
 
+
+def _add_show_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal show`` (print an archive's tables) to the subcommands."""
     show = commands.add_parser(
         "show", help="print the tables stored in an archive",
         description="Print the free forces and moments per order from a harmbal netCDF archive, and the "
                     "verification and joint-force tables if the archive holds them.")
     show.add_argument("archive", type=Path, help="netCDF archive written by 'harmbal run -o'")
     show.set_defaults(handler=_show)
-    for command in (run, star, design, check, rep, sweep):
-        command.add_argument("--negligible", type=_negligible, metavar="FRACTION",
-                             help="components at or below FRACTION of one cylinder's share of the load scale are "
-                                  "negligible (default: the scene's [model] negligible, else 1e-3)")
-    for command in (run, star, design, check, rep, loads, sweep):
-        command.add_argument("--memory-budget", type=_budget_value("parse_size"), metavar="SIZE",
-                             help="refuse work estimated to need more memory, e.g. 16GiB or none (default: "
-                                  "$HARMBAL_MEMORY_BUDGET, else 4 GiB or half the available memory if less)")
-        command.add_argument("--time-budget", type=_budget_value("parse_duration"), metavar="DURATION",
-                             help="refuse work estimated to take longer, e.g. 2h or none (default: "
-                                  "$HARMBAL_TIME_BUDGET, else 10 min)")
-    return parser
+    return show
 
 
 def _budget_value(parser: str):
@@ -338,21 +385,34 @@ def _order_table_without_datasets(scene, backend: str) -> str:
 
     from .model.evaluate import evaluate
     from .reporting.tables import order_table_of_arrays
+    from .views.evaluation import Evaluation
     from .views.orders import unit_orders
-    from .views.time import attributes, body_aliasing
+    from .views.time import attributes
 
-    unit = evaluate(scene)
-    values, attrs, _ = unit_orders(unit, body_aliasing(unit, backend), attributes(scene, unit.samples_per_rev), backend)
+    ev = Evaluation(evaluate(scene), backend=backend)
+    values, attrs, _ = unit_orders(ev, attributes(scene, ev.unit.samples_per_rev))
     speeds = np.asarray(scene.speeds, dtype=float)
     w2 = speeds**2
     return order_table_of_arrays(attrs, speeds, lambda i: {name: w2[i] * np.asarray(v) for name, v in values.items()})
 
 
 def _sweep(args) -> None:
-    from .scene import SceneError
-    from .scene.units import QuantityError
-    from .studies.sweep import monte_carlo, sweep
+    _check_sweep_arguments(args)
+    scene = _load(args.scene, args.negligible)
+    if max(args.orders) > scene.sampling.max_order:
+        raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
+    ds = _sweep_dataset(args, scene, _sweep_sets(args, scene))
+    print(_write_sweep_and_tabulate(args, scene, ds))
+    if args.output is not None:
+        print(f"\nwrote {args.output}")
+    if args.plot is not None:
+        _plot_sweep(args, ds)
+        print(f"\nwrote {args.plot}")
 
+
+def _check_sweep_arguments(args) -> None:
+    """Refuse (:class:`_BadInput`) options of ``harmbal sweep`` that do not go
+    together, before the scene is read."""
     if args.output is not None:
         _check_output(args.output, (".nc", ".zarr"), "the sweep is written as a netCDF archive (.nc) or a Zarr store "
                       "(.zarr)")
@@ -382,11 +442,15 @@ def _sweep(args) -> None:
     if args.zip and len(set(counts.values())) > 1:
         raise _BadInput("--zip needs equally many values of every --set key: "
                         + ", ".join(f"{key} has {count}" for key, count in counts.items()))
-    scene = _load(args.scene, args.negligible)
-    if max(args.orders) > scene.sampling.max_order:
-        raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {scene.sampling.max_order}")
-    sets = _sweep_sets(args, scene)
+
+
+def _sweep_dataset(args, scene, sets: dict):
+    """The sweep's or Monte Carlo's Dataset (lazy with ``--chunks``), with a
+    progress bar; the library's refusals of the swept values are bad input."""
     from .reporting.progress import ProgressBar
+    from .scene import SceneError
+    from .scene.units import QuantityError
+    from .studies.sweep import monte_carlo, sweep
 
     # Only sweeps of many geometries take long enough to report (about 0.7 ms each).
     bar = ProgressBar("harmbal sweep: geometries read and evaluated", minimum=1000)
@@ -403,6 +467,12 @@ def _sweep(args) -> None:
                        design=args.design)
     except (SceneError, QuantityError) as exc:
         raise _BadInput(str(exc)) from None
+    return ds
+
+
+def _write_sweep_and_tabulate(args, scene, ds) -> str:
+    """Write the archive asked for by ``-o`` (if any) and return the sweep's
+    table; with ``--chunks`` both in one pass over the chunks."""
     from .reporting.sweeps import sweep_table, table_inputs
 
     archive = None
@@ -422,22 +492,23 @@ def _sweep(args) -> None:
             if archive is not None:
                 save(archive, args.output)
             table = sweep_table(ds)
-    print(table)
-    if args.output is not None:
-        print(f"\nwrote {args.output}")
-    if args.plot is not None:
-        from .reporting.plots import save_figure
-        from .reporting.sweep_plots import monte_carlo_figure, sweep_figure
+    return table
 
-        keys = [k for k, _ in args.sets]
-        if args.monte_carlo is not None:
-            figure = monte_carlo_figure(ds, order=args.orders[0])
-        elif not args.zip and len(keys) > 1:
-            figure = sweep_figure(ds, keys[0], keys[1], order=args.orders[0])
-        else:
-            figure = sweep_figure(ds, keys[0])
-        save_figure(figure, args.plot)
-        print(f"\nwrote {args.plot}")
+
+def _plot_sweep(args, ds) -> None:
+    """Draw ``--plot``: the Monte Carlo figure, a map over a grid's first two
+    keys, or the first key's curve."""
+    from .reporting.plots import save_figure
+    from .reporting.sweep_plots import monte_carlo_figure, sweep_figure
+
+    keys = [k for k, _ in args.sets]
+    if args.monte_carlo is not None:
+        figure = monte_carlo_figure(ds, order=args.orders[0])
+    elif not args.zip and len(keys) > 1:
+        figure = sweep_figure(ds, keys[0], keys[1], order=args.orders[0])
+    else:
+        figure = sweep_figure(ds, keys[0])
+    save_figure(figure, args.plot)
 
 
 def _sweep_sets(args, scene) -> dict:

@@ -44,7 +44,7 @@ from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest
 from ..orders.spectrum import ZERO, ZERO_RTOL, classify, zero_below_round_off
 from ..scene import Scene, SceneError, scene_from_text
 from .counterweights import SizedBlank, size_blank
-from .solvers import LP_TOLERANCES, DesignError
+from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
 from ..scene.writer import (angle_text, blank_table, length_text, quantity_text, signed_angle_text, toml_tables,
                             with_engine, without_tables)
 from ..model.evaluate import moment_about, evaluate
@@ -67,8 +67,8 @@ BOUND_SIDES = 64
 
 
 @dataclass(frozen=True)
-class Design:
-    """The result of :func:`design`.
+class Design(BalancerDesign):
+    """The result of :func:`design` for balancer elements.
 
     ``scene`` is the scene with the designed elements, loaded from ``text``,
     the scene file harmbal writes (it has a ``[verify]`` table with the
@@ -181,7 +181,7 @@ def check_request(scene: Scene, request: DesignRequest | None) -> None:
 
 
 def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = None, *, name: str | None = None,
-           description: str | None = None) -> Design:
+           description: str | None = None) -> BalancerDesign:
     """Design balancer elements order by order and write them into a scene.
 
     Parameters
@@ -200,8 +200,9 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
 
     Returns
     -------
-    Design
-        The designed elements, the output scene (text and loaded), the
+    BalancerDesign
+        A :class:`Design` (a :class:`~harmbal.balance.lever.LeverDesign` for
+        a lever request, as described there): the designed elements, the output scene (text and loaded), the
         predicted residuals and messages on what cannot be cancelled; and,
         over every order 1 … ``max_order`` (dim ``checked_order``), the
         components that are not targeted and that the new elements make
@@ -236,16 +237,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
 
         return design_lever(scene, request, name=name, description=description)
     check_request(scene, request)
-    try:
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # non-finite results are refused
-            plan = _plan(scene, request)
-            solution = _solve(scene, request, plan)
-    except (np.linalg.LinAlgError, FloatingPointError) as exc:
-        raise DesignError(f"{scene.source}: the design's linear algebra failed ({exc}): check the scene's masses "
-                          "and lengths and the [design] candidates' planes and positions") from None
-    error = size_error(scene.source, request.candidates, solution.written, plan.zero[0])
-    if error is not None:
-        raise error
+    plan, solution = _planned_and_solved(scene, request)
     values, ok, predicted = solution.values, solution.ok, solution.predicted
     w2 = scene.speeds[0] ** 2
     before = {n: zero_below_round_off(v, plan.zero_scales[n])
@@ -268,9 +260,45 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     messages += _height_hints(request, values, predicted, ok, plan.frame, w2,
                               ZERO_RTOL * plan.zero_scales["roll"])
     messages += _bound_messages(request, values)
+    dataset = xr.Dataset({**_design_variables(request, plan, before, predicted, ok, values, w2),
+                          **_made_worse(plan, designed, unit)}, _design_coords(scene, request, plan), {
+        "title": f"harmbal balancer design: {scene.name}",
+        "engine": scene.name,
+        "objective": request.objective,
+        "cancel": " ".join(request.cancel),
+        "feasible": "no" if messages else "yes",
+        "messages": "\n".join(messages),
+        "blanks": "\n".join(_blank_note(label, sized) for label, sized in blanks.items()),
+        "negligible": scene.model.negligible,
+        "zero_rtol": ZERO_RTOL,
+    })
+    worsened = worsened_messages(dataset, by="the designed elements")
+    dataset.attrs["worsened"] = "\n".join(worsened)
+    return Design(scene=designed, text=text, elements=elements, dataset=dataset, messages=tuple(messages),
+                  worsened=tuple(worsened))
 
+
+def _planned_and_solved(scene: Scene, request: DesignRequest) -> tuple[_Plan, _Solution]:
+    """:func:`design`'s plan and solution; failed linear algebra and elements
+    beyond the size limit are refused (:class:`DesignError`)."""
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # non-finite results are refused
+            plan = _plan(scene, request)
+            solution = _solve(scene, request, plan)
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        raise DesignError(f"{scene.source}: the design's linear algebra failed ({exc}): check the scene's masses "
+                          "and lengths and the [design] candidates' planes and positions") from None
+    error = size_error(scene.source, request.candidates, solution.written, plan.zero[0])
+    if error is not None:
+        raise error
+    return plan, solution
+
+
+def _design_variables(request: DesignRequest, plan: _Plan, before, predicted, ok, values, w2: float) -> dict:
+    """The variables of :func:`design`'s Dataset per targeted order and
+    component (at the design speed, ``w2`` = ω²) and per designed element."""
     target_names = [n for n, _ in COMPONENTS]
-    data = {
+    return {
         "before": (("order", "component"), w2 * np.array([[before[n][k] for n in target_names]
                                                              for k in request.orders]),
                    {"long_name": "phasor without the designed elements", "units_by_component": "component_units"}),
@@ -285,9 +313,13 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
                       {"units": "kg m", "long_name": "designed unbalance (mass x radius)"}),
         "unbalance_angle": ("element", [float(np.angle(v)) for c in request.candidates for v in values[c.label]],
                             {"units": "rad", "long_name": "direction of the unbalance at theta = 0"}),
-        **_made_worse(plan, designed, unit),
     }
-    coords = {
+
+
+def _design_coords(scene: Scene, request: DesignRequest, plan: _Plan) -> dict:
+    """The coordinates of :func:`design`'s Dataset."""
+    target_names = [n for n, _ in COMPONENTS]
+    return {
         "order": ("order", list(request.orders), {"long_name": "order of crank speed"}),
         "component": ("component", target_names),
         "component_units": ("component", ["N" if g == "force" else "N m" for _, g in COMPONENTS]),
@@ -297,20 +329,6 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         CHECKED_ORDER: (CHECKED_ORDER, checked_orders(plan.frame[0]), {"long_name": "order compared for components "
                                                                                     "made worse"}),
     }
-    dataset = xr.Dataset(data, coords, {
-        "title": f"harmbal balancer design: {scene.name}",
-        "engine": scene.name,
-        "objective": request.objective,
-        "cancel": " ".join(request.cancel),
-        "feasible": "no" if messages else "yes",
-        "messages": "\n".join(messages),
-        "blanks": "\n".join(_blank_note(label, sized) for label, sized in blanks.items()),
-        "negligible": scene.model.negligible,
-        "zero_rtol": ZERO_RTOL,
-    })
-    worsened = worsened_messages(dataset, by="the designed elements")
-    dataset.attrs["worsened"] = "\n".join(worsened)
-    return Design(designed, text, elements, dataset, tuple(messages), tuple(worsened))
 
 
 @dataclass(frozen=True)

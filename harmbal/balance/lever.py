@@ -38,7 +38,7 @@ from typing import Callable
 
 import numpy as np
 
-from .solvers import LP_TOLERANCES, DesignError
+from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
 from ..scene.requests import LEVER_OBJECTIVES, LEVER_SIGNALS, PEAK_SAMPLES, LeverDesignRequest
 from ..scene.elements import LeverBalancer, LinkBody
 from ..model.linkage import four_bar, lever_loads, to_engine, weight_basis
@@ -65,8 +65,8 @@ class LeverProblem:
 
 
 @dataclass(frozen=True)
-class LeverDesign:
-    """A balance weight and what it achieves.
+class LeverDesign(BalancerDesign):
+    """A balance weight and what it achieves (the result of :func:`design_lever`).
 
     ``start`` and ``weight`` are (m [kg], x_G [m], y_G [m]) of the scene's
     weight and of the optimum; ``criterion_start``/``criterion`` the
@@ -402,16 +402,8 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     LeverDesign
     """
     from ..scene import SceneError, scene_from_text
-    from ..views.time import simulate
 
-    request = request or scene.design
-    if not isinstance(request, LeverDesignRequest):
-        raise DesignError(f"{scene.source}: no [design.lever] table: say which lever balancer's weight to "
-                               "optimise (docs/lever.md)")
-    if request.objective not in LEVER_OBJECTIVES or any(s not in LEVER_SIGNALS for s in request.signals):
-        raise DesignError(f"objective must be one of {LEVER_OBJECTIVES} and signals of {LEVER_SIGNALS}")
-    if request.objective == "orders" and max(request.orders) > scene.sampling.max_order:
-        raise DesignError(f"{scene.source}: design.orders must not exceed sampling.max_order")
+    request = _lever_request(scene, request)
     index, lever = _lever(scene, request.lever)
     problem = lever_problem(scene, request)
     speed = scene.speeds[0]
@@ -419,8 +411,6 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     start = (lever.coupler.mass, *lever.coupler.cg)
     p_start = _weight_p(lever.coupler)
     length = lever.coupler_length
-    scale = np.array([max(lever.coupler.mass, 1.0), max(lever.coupler.mass, 1.0) * length,
-                      max(lever.coupler.mass, 1.0) * length])
 
     def judge(p) -> float:
         return criterion(problem.values(p) * w2, request.objective, request.orders, request.weights)
@@ -431,29 +421,9 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     evaluations = cycles = 0
     clock = time.perf_counter()
     if method == "exact":
-        try:
-            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # a weight not finite is refused
-                if request.objective == "orders":
-                    p = _solve_qp(problem, request.orders, request.weights, g, h, scale)
-                    used = "qp"
-                else:
-                    p = _solve_lp(problem, request.objective, g, h, scale)
-                    used = "lp"
-        except (np.linalg.LinAlgError, FloatingPointError) as exc:
-            raise DesignError(f"{scene.source}: the lever design's linear algebra failed ({exc}): check the lever "
-                              "balancer's geometry and masses and design.lever's bounds") from None
-        if not np.isfinite(p).all():
-            raise DesignError(f"{scene.source}: the lever design gives a weight that is not finite: check the lever "
-                              "balancer's geometry and masses and design.lever's bounds")
+        p, used = _exact_optimum(scene, lever, problem, request, (g, h))
     elif method == "compass":
-        black_box = _black_box(scene, lever, request, problem.theta)
-
-        def bounded(weight) -> float:  # the search stays inside the bounds
-            return black_box(weight) if np.all(g @ _weight_p(_with_weight(lever, weight).coupler) <= h) else math.inf
-
-        best, _, cycles, evaluations = compass_search(
-            bounded, start, (0.1 * max(start[0], 0.1), 0.05 * length, 0.05 * length))
-        p = _weight_p(_with_weight(lever, best).coupler)
+        p, cycles, evaluations = _compass_optimum(scene, lever, problem, request, (g, h))
         used = "compass"
     else:
         raise ValueError(f"unknown method {method!r}: 'exact' or 'compass'")
@@ -464,12 +434,7 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
 
     designed = _with_weight(lever, weight)
     levers = scene.levers[:index] + (designed,) + scene.levers[index + 1:]
-    # The judge: the full time-domain model with the new weight, independent of the affine map.
-    time_ds = simulate(replace(scene, levers=levers), samples_per_rev=len(problem.theta))
-    if "speed" in time_ds.dims:
-        time_ds = time_ds.isel(speed=0)
-    exact = criterion(_signals(time_ds.force.values, time_ds.moment.values, request.signals), request.objective,
-                      request.orders, request.weights)
+    exact = _exact_criterion(replace(scene, levers=levers), problem, request)
     scale_value = float(np.abs(problem.rest).max() + np.abs(problem.basis @ p).max()) * w2
     tolerance = 1e-9 * (scale_value**2 if request.objective == "orders" else scale_value) * len(request.signals)
     text = _scene_text(scene, index, designed, request, used, (value_start, value), name, description)
@@ -483,9 +448,77 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
     if not _same(out, scene, levers):
         messages.append("the scene was changed in Python after it was read: the output text is its file's with the "
                         "new weight, not this scene")
-    return LeverDesign(request, lever.label, used, speed, start, weight, value_start, value, exact, tolerance,
-                       abs(exact - value) <= tolerance, breakdown, seconds, evaluations, cycles, tuple(messages),
-                       text, out)
+    return LeverDesign(request=request, lever=lever.label, method=used, speed=speed, start=start, weight=weight,
+                       criterion_start=value_start, criterion=value, exact_criterion=exact, tolerance=tolerance,
+                       verified=abs(exact - value) <= tolerance, breakdown=breakdown, seconds=seconds,
+                       evaluations=evaluations, cycles=cycles, messages=tuple(messages), text=text, scene=out)
+
+
+def _lever_request(scene: Scene, request: LeverDesignRequest | None) -> LeverDesignRequest:
+    """The request :func:`design_lever` solves (default the scene's ``[design]``), refused if it is not one."""
+    request = request or scene.design
+    if not isinstance(request, LeverDesignRequest):
+        raise DesignError(f"{scene.source}: no [design.lever] table: say which lever balancer's weight to "
+                               "optimise (docs/lever.md)")
+    if request.objective not in LEVER_OBJECTIVES or any(s not in LEVER_SIGNALS for s in request.signals):
+        raise DesignError(f"objective must be one of {LEVER_OBJECTIVES} and signals of {LEVER_SIGNALS}")
+    if request.objective == "orders" and max(request.orders) > scene.sampling.max_order:
+        raise DesignError(f"{scene.source}: design.orders must not exceed sampling.max_order")
+    return request
+
+
+def _exact_optimum(scene: Scene, lever: LeverBalancer, problem: LeverProblem, request: LeverDesignRequest,
+                   constraints: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, str]:
+    """The optimal weight's parameters by the linear programme (the
+    quadratic one for the "orders" objective) within the bounds ``g p ≤ h``,
+    and which ("lp" or "qp"); a weight that is not finite is refused."""
+    g, h = constraints
+    mass, length = max(lever.coupler.mass, 1.0), lever.coupler_length
+    scale = np.array([mass, mass * length, mass * length])
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # a weight not finite is refused
+            if request.objective == "orders":
+                p = _solve_qp(problem, request.orders, request.weights, g, h, scale)
+                used = "qp"
+            else:
+                p = _solve_lp(problem, request.objective, g, h, scale)
+                used = "lp"
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        raise DesignError(f"{scene.source}: the lever design's linear algebra failed ({exc}): check the lever "
+                          "balancer's geometry and masses and design.lever's bounds") from None
+    if not np.isfinite(p).all():
+        raise DesignError(f"{scene.source}: the lever design gives a weight that is not finite: check the lever "
+                          "balancer's geometry and masses and design.lever's bounds")
+    return p, used
+
+
+def _compass_optimum(scene: Scene, lever: LeverBalancer, problem: LeverProblem, request: LeverDesignRequest,
+                     constraints: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, int, int]:
+    """The thesis's compass search from the scene's weight, inside the
+    bounds ``g p ≤ h``, on the full model: the weight's parameters and the
+    search's cycles and evaluations."""
+    g, h = constraints
+    black_box = _black_box(scene, lever, request, problem.theta)
+    start, length = (lever.coupler.mass, *lever.coupler.cg), lever.coupler_length
+
+    def bounded(weight) -> float:  # the search stays inside the bounds
+        return black_box(weight) if np.all(g @ _weight_p(_with_weight(lever, weight).coupler) <= h) else math.inf
+
+    best, _, cycles, evaluations = compass_search(
+        bounded, start, (0.1 * max(start[0], 0.1), 0.05 * length, 0.05 * length))
+    return _weight_p(_with_weight(lever, best).coupler), cycles, evaluations
+
+
+def _exact_criterion(designed: Scene, problem: LeverProblem, request: LeverDesignRequest) -> float:
+    """The criterion of the scene with the new weight by the full
+    time-domain model: the judge, independent of the affine map."""
+    from ..views.time import simulate
+
+    time_ds = simulate(designed, samples_per_rev=len(problem.theta))
+    if "speed" in time_ds.dims:
+        time_ds = time_ds.isel(speed=0)
+    return criterion(_signals(time_ds.force.values, time_ds.moment.values, request.signals), request.objective,
+                     request.orders, request.weights)
 
 
 def _same(out: Scene, scene: Scene, levers: tuple[LeverBalancer, ...]) -> bool:

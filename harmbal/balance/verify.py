@@ -27,6 +27,7 @@ order domain, on the scene it writes).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -285,13 +286,7 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     level :func:`harmbal.design` calls a target cancelled by. It never grows
     with the elements' own loads.
     """
-    request = request or scene.verify
-    if request is None:
-        raise VerifyError(f"{scene.source}: nothing to verify: the scene has no [verify] table (harmbal design "
-                          "writes one); give the orders to check")
-    if max(request.orders) > scene.sampling.max_order:
-        raise VerifyError(f"{scene.source}: order {max(request.orders)} is above sampling.max_order = "
-                          f"{scene.sampling.max_order}")
+    request = _verify_request(scene, request)
     own = choose_samples(scene)
     samples = max(own, PEAK_SAMPLES)  # as verify_samples
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite loads are refused just below
@@ -302,16 +297,81 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         spectra = residual_spectra(unit, kmax, backend)  # (after/before, f/m, axis, order)
     _check_finite(scene, (after, before, spectra, engine))
     orders = list(request.orders)
+    speeds = Speeds(scene.speeds)
+    residuals = _residuals(scene, request, unit, engine, spectra, speeds, backend)
+    _check_finite(scene, (residuals.exact, residuals.tolerance, residuals.difference))
+    data = {**_phasor_variables(residuals, speeds.lead),
+            **_peak_variables(engine, (after, before), spectra[..., orders], speeds)}
+    coords = speeds.coords()
+    coords.update({
+        "order": ("order", np.array(orders), {}),
+        "component": ("component", [n for n, _ in COMPONENTS], {}),
+        "component_units": ("component", ["N" if g == "force" else "N m" for _, g in COMPONENTS], {}),
+        "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
+        CHECKED_ORDER: (CHECKED_ORDER, checked_orders(kmax), {"long_name": "order compared for components made worse"}),
+    })
+    ok = bool(residuals.passed.all())
+    check = dataset(data, coords, {
+        "title": f"harmbal verification of balancer elements: {scene.name}",
+        "engine": scene.name,
+        "samples_per_rev": samples,
+        "cancel": " ".join(request.cancel),
+        "tolerance_rule": (f"{request.tolerance:g} x value without balancers + {ZERO_RTOL:g} x sum of single-body "
+                           "peak loads without balancers + aliasing estimate"),
+        "predicted_speed": request.speed if request.speed else "none (every targeted component must vanish)",
+        "passed": "yes" if ok else "no",
+        "negligible": scene.model.negligible,
+        "zero_rtol": ZERO_RTOL,
+        "worsened": "",
+    })
+    check.attrs["worsened"] = "\n".join(worsened_messages(check))
+    return check
+
+
+def _verify_request(scene: Scene, request: VerifyRequest | None) -> VerifyRequest:
+    """The request :func:`verify` judges (default the scene's ``[verify]``),
+    refused if there is none or it names an order above ``max_order``."""
+    request = request or scene.verify
+    if request is None:
+        raise VerifyError(f"{scene.source}: nothing to verify: the scene has no [verify] table (harmbal design "
+                          "writes one); give the orders to check")
+    if max(request.orders) > scene.sampling.max_order:
+        raise VerifyError(f"{scene.source}: order {max(request.orders)} is above sampling.max_order = "
+                          f"{scene.sampling.max_order}")
+    return request
+
+
+@dataclass(frozen=True, eq=False)
+class _Residuals:
+    """The judgement of :func:`verify` at speed, per (speed…, order, component):
+    the phasors without the elements (``unbalanced``), ``predicted`` and
+    ``exact``, their ``difference`` and ``tolerance``, ``passed``; the engine's
+    ``scale`` and the negligible ``level`` broadcast over order; the
+    ``targeted`` components and the made-worse check's variables (``worse``)."""
+
+    unbalanced: np.ndarray
+    predicted: np.ndarray
+    exact: np.ndarray
+    difference: np.ndarray
+    tolerance: np.ndarray
+    passed: np.ndarray
+    scale: np.ndarray
+    level: np.ndarray
+    targeted: np.ndarray
+    worse: dict
+
+
+def _residuals(scene: Scene, request: VerifyRequest, unit, engine: tuple[float, float], spectra: np.ndarray,
+               speeds: Speeds, backend: str) -> _Residuals:
+    """Set the exact residual of every targeted order and component next to
+    the predicted one, at every speed, with the tolerance that judges it."""
+    orders, names, kmax = list(request.orders), [n for n, _ in COMPONENTS], scene.sampling.max_order
     # The co/counter split needs the orders from 0 (order 0 is a fixed vector); then keep the orders asked for.
     # (component, order) each
     exact_all, unbalanced_all = (spectrum_components(spectrum, unit.sense) for spectrum in spectra)
     exact, unbalanced = exact_all[:, orders], unbalanced_all[:, orders]
-    spectra = spectra[..., orders]
     alias_force, alias_moment = body_aliasing(unit, backend)
-
-    names = [n for n, _ in COMPONENTS]
     targeted = np.array([g in request.cancel for _, g in COMPONENTS])
-    speeds = Speeds(scene.speeds)
     w2, lead, at_speed = np.asarray(speeds.w2), speeds.lead, speeds.scaled
 
     with np.errstate(over="ignore", invalid="ignore"):  # values at speed that overflow are refused below
@@ -330,32 +390,51 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         # The class zero of the engine alone: what design calls cancelled; never the elements' own loads.
         tolerance = request.tolerance * np.abs(unbalanced) + ZERO_RTOL * scale + alias
         difference = np.abs(exact - predicted)
-    _check_finite(scene, (exact, tolerance, difference))
-    passed = ~targeted | (difference <= tolerance)
+    return _Residuals(unbalanced=unbalanced, predicted=predicted, exact=exact, difference=difference,
+                      tolerance=tolerance, passed=~targeted | (difference <= tolerance), scale=scale,
+                      level=level[..., None, :], targeted=targeted, worse=worse)
 
-    def removed(was, now, scale):
-        """Share removed [%]; 0 where there was nothing to remove."""
-        share = 100 * (1 - now / np.where(was > 0, was, 1))
-        return np.where(was > ZERO_RTOL * scale, share, 0.0)
 
+def _phasor_variables(residuals: _Residuals, lead: tuple) -> dict:
+    """The variables of :func:`verify` over (speed…, order, component), and
+    the made-worse check's."""
+    r = residuals
     ocx = lead + ("order", "component")
     described = ("w = z + i t = P_co exp(i k theta) + P_counter exp(-i k theta); t points 90 deg ahead of +z in the "
                  "direction of rotation; roll: the order phasor of the moment about x")
-    data = {
-        "before": (ocx, zero_below_round_off(unbalanced, scale),
+    return {
+        "before": (ocx, zero_below_round_off(r.unbalanced, r.scale),
                    {"long_name": "phasor without balancer elements", **BY_COMPONENT, "description": described}),
-        "predicted": (ocx, predicted, {"long_name": "residual phasor the design predicted", **BY_COMPONENT,
-                                       "description": described}),
-        "exact": (ocx, exact, {"long_name": "residual phasor of the exact model", **BY_COMPONENT,
-                               "description": described}),
-        "difference": (ocx, difference, {"long_name": "|exact - predicted|", **BY_COMPONENT}),
-        "tolerance": (ocx, tolerance, {**BY_COMPONENT, "long_name": "largest |exact - predicted| that passes"}),
-        "targeted": ("component", targeted, {"long_name": "component the design cancels"}),
-        "passed": (ocx, passed, {"long_name": "difference within the tolerance (always for components not targeted)"}),
-        "exact_class": (ocx, classify(exact, scale, level[..., None, :]), {
+        "predicted": (ocx, r.predicted, {"long_name": "residual phasor the design predicted", **BY_COMPONENT,
+                                         "description": described}),
+        "exact": (ocx, r.exact, {"long_name": "residual phasor of the exact model", **BY_COMPONENT,
+                                 "description": described}),
+        "difference": (ocx, r.difference, {"long_name": "|exact - predicted|", **BY_COMPONENT}),
+        "tolerance": (ocx, r.tolerance, {**BY_COMPONENT, "long_name": "largest |exact - predicted| that passes"}),
+        "targeted": ("component", r.targeted, {"long_name": "component the design cancels"}),
+        "passed": (ocx, r.passed, {"long_name": "difference within the tolerance (always for components not "
+                                                "targeted)"}),
+        "exact_class": (ocx, classify(r.exact, r.scale, r.level), {
             "long_name": "class of the exact residual", **CLASS_ATTRS}),
-        **worse,
+        **r.worse,
     }
+
+
+def _removed(was, now, scale):
+    """Share removed [%]; 0 where there was nothing to remove."""
+    share = 100 * (1 - now / np.where(was > 0, was, 1))
+    return np.where(was > ZERO_RTOL * scale, share, 0.0)
+
+
+def _peak_variables(engine: tuple[float, float], after_before, spectra: np.ndarray, speeds: Speeds) -> dict:
+    """Per force and moment: the peaks over the revolution per axis and the
+    amplitudes per order and axis, with and without the elements, the share
+    removed and the engine's scale. ``after_before`` are the totals
+    (force/moment, axis, angle); ``spectra`` (after/before, force/moment,
+    axis, order) of the orders asked for."""
+    after, before = after_before
+    lead, at_speed = speeds.lead, speeds.scaled
+    data = {}
     for j, (name, units) in enumerate((("force", "N"), ("moment", "N m"))):
         s = at_speed(engine[j])
         was, now = at_speed(np.abs(before[j]).max(axis=-1)), at_speed(np.abs(after[j]).max(axis=-1))
@@ -363,37 +442,14 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
             "units": units, "long_name": f"peak {name} over the revolution without balancer elements (all orders)"})
         data[f"peak_{name}_after"] = (lead + ("axis",), now, {
             "units": units, "long_name": f"peak {name} over the revolution with the balancer elements (all orders)"})
-        data[f"peak_{name}_removed"] = (lead + ("axis",), removed(was, now, np.expand_dims(s, -1)), {"units": "%"})
+        data[f"peak_{name}_removed"] = (lead + ("axis",), _removed(was, now, np.expand_dims(s, -1)), {"units": "%"})
         was, now = at_speed(np.abs(spectra[1, j]).T), at_speed(np.abs(spectra[0, j]).T)  # (speed, order, axis)
         data[f"{name}_before"] = (lead + ("order", "axis"), was, {
             "units": units, "long_name": f"{name} amplitude per order and axis without balancer elements"})
         data[f"{name}_after"] = (lead + ("order", "axis"), now, {
             "units": units, "long_name": f"{name} amplitude per order and axis with the balancer elements"})
-        data[f"{name}_removed"] = (lead + ("order", "axis"), removed(was, now, np.reshape(s, np.shape(s) + (1, 1))),
+        data[f"{name}_removed"] = (lead + ("order", "axis"), _removed(was, now, np.reshape(s, np.shape(s) + (1, 1))),
                                    {"units": "%"})
         data[f"{name}_scale"] = (lead, s, {"units": units, "long_name": f"sum of single-body peak {name}s "
                                                                         "without balancer elements"})
-    coords = speeds.coords()
-    coords.update({
-        "order": ("order", np.array(orders), {}),
-        "component": ("component", names, {}),
-        "component_units": ("component", ["N" if g == "force" else "N m" for _, g in COMPONENTS], {}),
-        "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
-        CHECKED_ORDER: (CHECKED_ORDER, checked_orders(kmax), {"long_name": "order compared for components made worse"}),
-    })
-    ok = bool(passed.all())
-    check = dataset(data, coords, {
-        "title": f"harmbal verification of balancer elements: {scene.name}",
-        "engine": scene.name,
-        "samples_per_rev": samples,
-        "cancel": " ".join(request.cancel),
-        "tolerance_rule": (f"{request.tolerance:g} x value without balancers + {ZERO_RTOL:g} x sum of single-body "
-                           "peak loads without balancers + aliasing estimate"),
-        "predicted_speed": request.speed if request.speed else "none (every targeted component must vanish)",
-        "passed": "yes" if ok else "no",
-        "negligible": scene.model.negligible,
-        "zero_rtol": ZERO_RTOL,
-        "worsened": "",
-    })
-    check.attrs["worsened"] = "\n".join(worsened_messages(check))
-    return check
+    return data

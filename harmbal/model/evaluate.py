@@ -294,69 +294,142 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
     decay_rates = body_decay_rates(scene) if decay_rates is None else decay_rates
     n = samples_per_rev or choose_samples(scene, decay_rates)
     check_budget(scene, "evaluate", samples=n)  # every entry point's last guard before the arrays of C × n samples
-    sense, effects = scene.sense, scene.model.effects
     theta = 2 * np.pi * np.arange(n) / n
     cyls = scene.cylinders
-    ncyl = len(cyls)
     ref = np.asarray(scene.reference_point, dtype=float)
     throw = np.array([c.throw for c in cyls])
     bank = np.array([c.bank for c in cyls])
     x = np.array([c.x for c in cyls])
+    cyl = _cylinder_loads(scene, theta, (throw, bank, x), tangential, peak_samples)
+    crank_force, crank_moment, crank_peak = _unbalance_loads(scene, theta, throw, cyl, tangential)
+    el = _element_loads(scene, theta, ref, tangential, peak_samples)
+    arm, crank_arm = _lever_arms(scene, ref)
+    effects = scene.model.effects
+    harmonic = [1] if "rotating" in effects and scene.crankshaft_unbalances else []
+    if "balancers" in effects:
+        harmonic += [abs(shaft.ratio) for shaft in scene.shafts]
+    unbalances, crankshaft = (None, None) if tangential else _element_phasors(scene, throw)
+    return UnitLoads(
+        theta=theta, reference_point=ref, sense=scene.sense, max_order=scene.sampling.max_order,
+        cylinder_type=cyl.kind, type_planar=cyl.type_planar,
+        force_cylinder=cyl.force, moment_cylinder=cyl.moment,
+        force_crankshaft=crank_force, moment_crankshaft=crank_moment,
+        force_elements=el.force, moment_elements=el.moment,
+        force_levers=el.lever_force, moment_levers=el.lever_moment,
+        peak_force=cyl.peak_force, peak_moment=cyl.peak_roll + arm * cyl.peak_force,
+        crankshaft_peak_force=crank_peak + el.shaft_peak_force + el.lever_peak_force,
+        crankshaft_peak_moment=crank_arm * crank_peak + el.shaft_peak_moment + el.lever_peak_moment,
+        lever_arm=arm, crankshaft_lever_arm=crank_arm, decay_rates=decay_rates, drive_torque=cyl.drive_torque,
+        kinetic_energy=cyl.kinetic_energy, phase=throw - bank, bank=bank, x=x, unbalance_phasors=unbalances,
+        crankshaft_phasors=crankshaft, harmonic_orders=tuple(harmonic),
+    )
 
-    representatives, kind = cylinder_types(cyls)
+
+@dataclass(eq=False)
+class _CylinderLoads:
+    """Per cylinder, the loads of :func:`evaluate` in the engine frame
+    (cylinder, axis, angle), the drive torque and kinetic energy (cylinder,
+    angle) and the peak force and roll; per type, the planar samples and each
+    cylinder's type (``kind``). Mutable: the throw unbalances are added in."""
+
+    force: np.ndarray
+    moment: np.ndarray
+    drive_torque: np.ndarray
+    kinetic_energy: np.ndarray
+    type_planar: np.ndarray | None
+    peak_force: np.ndarray
+    peak_roll: np.ndarray
+    kind: np.ndarray
+
+
+def _cylinder_loads(scene: Scene, theta: np.ndarray, placement, tangential: bool,
+                    peak_samples: int | None) -> _CylinderLoads:
+    """The cylinders' planar loads, one vectorised evaluation per type and
+    phase row, placed in the engine frame; ``placement`` is (throw, bank, x)."""
+    throw, bank, x = placement
+    n, ncyl, sense = theta.size, len(scene.cylinders), scene.sense
+    representatives, kind = cylinder_types(scene.cylinders)
     rows, row, shift = _phase_rows(throw - bank, kind, n)
     psi = theta[None, :] + np.array([f for _, f in rows])[:, None]
     planar = planar_loads(scene.model, [representatives[t] for t, _ in rows], psi, tangential)
+    out = _CylinderLoads(force=np.zeros((ncyl, 3, n)), moment=np.zeros((ncyl, 3, n)),
+                         drive_torque=np.zeros((ncyl, n)), kinetic_energy=np.zeros((ncyl, n)), type_planar=None,
+                         peak_force=np.zeros(ncyl), peak_roll=np.zeros(ncyl), kind=kind)
+    if planar is None:
+        return out
+    samples = np.stack(planar, axis=1)  # (row, c/n/roll/drive torque/energy, angle)
+    out.type_planar = samples[: len(representatives), :3]
+    # Cylinder i's samples: its row rolled by its whole grid steps (index j + m_i).
+    index = (np.arange(n)[None, :] + shift[:, None]) % n
+    local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll/drive torque/energy, angle)
+    out.drive_torque, out.kinetic_energy = local[:, 3], local[:, 4]
+    # Local (c, n) -> transverse complex w = z + i·t, t 90° ahead of +z in
+    # the direction of rotation (t = −sense·y); e_c ↔ e^{iβ}.
+    w = (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * bank)[:, None]
+    out.force[:, 1] = -sense * w.imag
+    out.force[:, 2] = w.real
+    out.moment[:, 0] = sense * local[:, 2]
+    out.moment[:, 1] = -x[:, None] * out.force[:, 2]
+    out.moment[:, 2] = x[:, None] * out.force[:, 1]
+    fine = out.type_planar if peak_samples is None else interpolate(out.type_planar, peak_samples)
+    out.peak_force += np.hypot(fine[:, 0], fine[:, 1]).max(axis=-1)[kind]
+    out.peak_roll += np.abs(fine[:, 2]).max(axis=-1)[kind]
+    return out
 
-    force = np.zeros((ncyl, 3, n))
-    moment = np.zeros((ncyl, 3, n))
-    drive_torque = np.zeros((ncyl, n))
-    kinetic_energy = np.zeros((ncyl, n))
-    type_planar = None
-    peak_force = np.zeros(ncyl)
-    peak_roll = np.zeros(ncyl)
-    if planar is not None:
-        samples = np.stack(planar, axis=1)  # (row, c/n/roll/drive torque/energy, angle)
-        type_planar = samples[: len(representatives), :3]
-        # Cylinder i's samples: its row rolled by its whole grid steps (index j + m_i).
-        index = (np.arange(n)[None, :] + shift[:, None]) % n
-        local = samples[row[:, None], :, index].transpose(0, 2, 1)  # (cylinder, c/n/roll/drive torque/energy, angle)
-        drive_torque, kinetic_energy = local[:, 3], local[:, 4]
-        # Local (c, n) -> transverse complex w = z + i·t, t 90° ahead of +z in
-        # the direction of rotation (t = −sense·y); e_c ↔ e^{iβ}.
-        w = (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * bank)[:, None]
-        force[:, 1] = -sense * w.imag
-        force[:, 2] = w.real
-        moment[:, 0] = sense * local[:, 2]
-        moment[:, 1] = -x[:, None] * force[:, 2]
-        moment[:, 2] = x[:, None] * force[:, 1]
-        fine = type_planar if peak_samples is None else interpolate(type_planar, peak_samples)
-        peak_force += np.hypot(fine[:, 0], fine[:, 1]).max(axis=-1)[kind]
-        peak_roll += np.abs(fine[:, 2]).max(axis=-1)[kind]
 
+def _unbalance_loads(scene: Scene, theta: np.ndarray, throw: np.ndarray, cyl: _CylinderLoads, tangential: bool):
+    """Add the throw unbalances' loads and peaks to their cylinders' (``cyl``),
+    and return the crankshaft's unbalances' force and moment (axis, angle)
+    and peak force."""
+    n, sense = theta.size, scene.sense
     crank_force = np.zeros((3, n))
     crank_moment = np.zeros((3, n))
     crank_peak = 0.0
+    if "rotating" not in scene.model.effects:
+        return crank_force, crank_moment, crank_peak
     # A static unbalance's load per unit α (−m·A') points 90° behind it, against the rotation.
     lag = np.pi / 2 if tangential else 0.0
-    if "rotating" in effects:
-        owner = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
-        if owner:
-            ub = [u for c in cyls for u in c.throw_unbalances]
-            f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None],
-                                            np.array([u.unbalance for u in ub])[:, None],
-                                            np.array([u.x for u in ub])[:, None], sense)
-            np.add.at(force, owner, f)
-            np.add.at(moment, owner, m)
-            np.add.at(peak_force, owner, [u.unbalance for u in ub])
-        if scene.crankshaft_unbalances:
-            ub = scene.crankshaft_unbalances
-            f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([u.angle for u in ub])[:, None],
-                                            np.array([u.unbalance for u in ub])[:, None],
-                                            np.array([u.x for u in ub])[:, None], sense)
-            crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
-            crank_peak = sum(u.unbalance for u in ub)
+    cyls = scene.cylinders
+    owner = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
+    if owner:
+        ub = [u for c in cyls for u in c.throw_unbalances]
+        f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None],
+                                        np.array([u.unbalance for u in ub])[:, None],
+                                        np.array([u.x for u in ub])[:, None], sense)
+        np.add.at(cyl.force, owner, f)
+        np.add.at(cyl.moment, owner, m)
+        np.add.at(cyl.peak_force, owner, [u.unbalance for u in ub])
+    if scene.crankshaft_unbalances:
+        ub = scene.crankshaft_unbalances
+        f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([u.angle for u in ub])[:, None],
+                                        np.array([u.unbalance for u in ub])[:, None],
+                                        np.array([u.x for u in ub])[:, None], sense)
+        crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
+        crank_peak = sum(u.unbalance for u in ub)
+    return crank_force, crank_moment, crank_peak
 
+
+@dataclass(frozen=True, eq=False)
+class _ElementLoads:
+    """The balancer elements' loads of :func:`evaluate` (axis, angle), the
+    levers' alone (None without levers), and the peak force and moment of the
+    shafts and of the levers (kept apart: :func:`evaluate` sums them in this order)."""
+
+    force: np.ndarray
+    moment: np.ndarray
+    lever_force: np.ndarray | None = None
+    lever_moment: np.ndarray | None = None
+    shaft_peak_force: float = 0.0
+    shaft_peak_moment: float = 0.0
+    lever_peak_force: float = 0.0
+    lever_peak_moment: float = 0.0
+
+
+def _element_loads(scene: Scene, theta: np.ndarray, ref: np.ndarray, tangential: bool,
+                   peak_samples: int | None) -> _ElementLoads:
+    """The balance shafts' and lever balancers' loads (if the scene's effects
+    include balancers) and their peaks."""
+    n, sense, effects = theta.size, scene.sense, scene.model.effects
     element_force = np.zeros((3, n))
     element_moment = np.zeros((3, n))
     lever_force = lever_moment = None
@@ -376,30 +449,22 @@ def evaluate(scene: Scene, samples_per_rev: int | None = None, *, tangential: bo
         fine = np.stack([lever_force, moment_about(ref, lever_force, lever_moment)])
         fine = fine if peak_samples is None else interpolate(fine, peak_samples)
         lever_peak_force, lever_peak_moment = (float(v) for v in np.linalg.norm(fine, axis=1).max(axis=-1))
+    return _ElementLoads(force=element_force, moment=element_moment, lever_force=lever_force,
+                         lever_moment=lever_moment, shaft_peak_force=shaft_peak_force,
+                         shaft_peak_moment=shaft_peak_moment, lever_peak_force=lever_peak_force,
+                         lever_peak_moment=lever_peak_moment)
 
-    # |M_i| ≤ |roll| + |r − ref|·|F| with r the farthest point of cylinder i's loads.
-    arm = np.array([max([abs(c.x - ref[0])] + [abs(u.x - ref[0]) for u in c.throw_unbalances]) for c in cyls])
+
+def _lever_arms(scene: Scene, ref: np.ndarray) -> tuple[np.ndarray, float]:
+    """The lever arms that bound each cylinder's and the crankshaft's peak
+    moment about ``ref``: |M_i| ≤ |roll| + |r − ref|·|F| with r the farthest
+    point of cylinder i's loads."""
+    arm = np.array([max([abs(c.x - ref[0])] + [abs(u.x - ref[0]) for u in c.throw_unbalances])
+                    for c in scene.cylinders])
     arm = np.hypot(arm, np.hypot(ref[1], ref[2]))
     crank_arm = max([0.0] + [float(np.hypot(u.x - ref[0], np.hypot(ref[1], ref[2])))
                              for u in scene.crankshaft_unbalances])
-    harmonic = [1] if "rotating" in effects and scene.crankshaft_unbalances else []
-    if "balancers" in effects:
-        harmonic += [abs(shaft.ratio) for shaft in scene.shafts]
-    unbalances, crankshaft = (None, None) if tangential else _element_phasors(scene, throw)
-    return UnitLoads(
-        theta=theta, reference_point=ref, sense=sense, max_order=scene.sampling.max_order,
-        cylinder_type=kind, type_planar=type_planar,
-        force_cylinder=force, moment_cylinder=moment,
-        force_crankshaft=crank_force, moment_crankshaft=crank_moment,
-        force_elements=element_force, moment_elements=element_moment,
-        force_levers=lever_force, moment_levers=lever_moment,
-        peak_force=peak_force, peak_moment=peak_roll + arm * peak_force,
-        crankshaft_peak_force=crank_peak + shaft_peak_force + lever_peak_force,
-        crankshaft_peak_moment=crank_arm * crank_peak + shaft_peak_moment + lever_peak_moment,
-        lever_arm=arm, crankshaft_lever_arm=crank_arm, decay_rates=decay_rates, drive_torque=drive_torque,
-        kinetic_energy=kinetic_energy, phase=throw - bank, bank=bank, x=x, unbalance_phasors=unbalances,
-        crankshaft_phasors=crankshaft, harmonic_orders=tuple(harmonic),
-    )
+    return arm, crank_arm
 
 
 def time_domain_evaluation(scene: Scene, samples_per_rev: int | None = None) -> tuple[UnitLoads, int]:

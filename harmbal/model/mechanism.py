@@ -96,16 +96,53 @@ def reactions(scene: Scene, theta: np.ndarray) -> Reactions:
     Reactions
     """
     theta = np.asarray(theta, dtype=float)
-    sense = scene.sense
-    forces: dict[str, np.ndarray] = {}
-    describe: dict[str, str] = {}
-    crank_pins = np.zeros_like(theta, dtype=complex)  # Σ force of the crank on the rods
-    torque = np.zeros_like(theta)
-    walls = np.zeros_like(theta, dtype=complex)
-    frame_roll = np.zeros_like(theta)
-    couples = []
+    sums = _Sums.zeros(theta)
+    _cylinder_reactions(scene, theta, sums)
+    _lever_reactions(scene, theta, sums)
+    # The crankshaft: unbalances turning with it (throws, crankshaft,
+    # counterweights and CAD data on its axis) have m·a_G = −U·e^{i(θ+α)}.
+    unbalance = sum((u.unbalance * np.exp(1j * (c.throw + u.angle)) for c in scene.cylinders
+                     for u in c.throw_unbalances), 0j)
+    unbalance += sum((u.unbalance * np.exp(1j * u.angle) for u in scene.crankshaft_unbalances), 0j)
+    unbalance += sum((u.unbalance * np.exp(1j * u.angle) for s in scene.shafts if s.on_crank
+                      for u in s.unbalances), 0j)
+    bearing = sums.crank_pins + sums.couplers - unbalance * np.exp(1j * theta)
+    forces = {"D": bearing, **sums.forces}
+    describe = {"D": "frame on crankshaft (main bearings, resultant)", **sums.describe}
+    frame_force = -(bearing + sums.pivots + sums.walls)
+    couples = sums.couples
+    return Reactions(theta=theta, forces=forces, describe=describe, drive_torque=sums.torque,
+                     wall_couple=np.array(couples).reshape(len(couples), len(theta)), frame_force=frame_force,
+                     frame_roll=sums.frame_roll)
 
-    # 1. Piston and rod of each cylinder, in its plane frame.
+
+@dataclass(eq=False)
+class _Sums:
+    """What :func:`reactions` gathers over the bodies: each joint's force and
+    words, the forces of the crank on the rods (``crank_pins``) and on the
+    couplers, of the frame on the rockers (``pivots``) and the walls on the
+    pistons, the drive torque, the frame's roll and the pistons' wall couples."""
+
+    forces: dict
+    describe: dict
+    crank_pins: np.ndarray
+    couplers: np.ndarray
+    pivots: np.ndarray
+    walls: np.ndarray
+    torque: np.ndarray
+    frame_roll: np.ndarray
+    couples: list
+
+    @classmethod
+    def zeros(cls, theta: np.ndarray) -> _Sums:
+        return cls(forces={}, describe={}, crank_pins=np.zeros_like(theta, dtype=complex),
+                   couplers=np.zeros_like(theta, dtype=complex), pivots=np.zeros_like(theta, dtype=complex),
+                   walls=np.zeros_like(theta, dtype=complex), torque=np.zeros_like(theta),
+                   frame_roll=np.zeros_like(theta), couples=[])
+
+
+def _cylinder_reactions(scene: Scene, theta: np.ndarray, sums: _Sums) -> None:
+    """Add the joints of each cylinder's piston and rod, solved in its plane frame, to ``sums``."""
     for cyl in scene.cylinders:
         psi = theta + cyl.throw - cyl.bank
         kin = slider_crank(psi, cyl.crank_radius, cyl.rod_length, cyl.offset)
@@ -124,25 +161,24 @@ def reactions(scene: Scene, theta: np.ndarray) -> Reactions:
         on_rod = on_piston + rod_force  # crank on rod at E
         turn = np.exp(1j * cyl.bank)
         label = cyl.label
-        forces[f"E{label}"] = on_rod * turn
-        describe[f"E{label}"] = f"crankshaft on con-rod {label} (crank pin)"
-        forces[f"F{label}"] = on_piston * turn
-        describe[f"F{label}"] = f"con-rod on piston {label} (piston pin)"
-        forces[f"W{label}"] = wall * turn
-        describe[f"W{label}"] = f"cylinder wall on piston {label} (at the pin)"
+        sums.forces[f"E{label}"] = on_rod * turn
+        sums.describe[f"E{label}"] = f"crankshaft on con-rod {label} (crank pin)"
+        sums.forces[f"F{label}"] = on_piston * turn
+        sums.describe[f"F{label}"] = f"con-rod on piston {label} (piston pin)"
+        sums.forces[f"W{label}"] = wall * turn
+        sums.describe[f"W{label}"] = f"cylinder wall on piston {label} (at the pin)"
         couple = -cyl.piston.cg_lateral * m_pis * kin.ddb
-        couples.append(couple)
-        crank_pins += on_rod * turn
-        torque += _cross(e_pin * turn, on_rod * turn)
-        walls += wall * turn
-        frame_roll -= _cross(f_pin * turn, wall * turn) + couple
+        sums.couples.append(couple)
+        sums.crank_pins += on_rod * turn
+        sums.torque += _cross(e_pin * turn, on_rod * turn)
+        sums.walls += wall * turn
+        sums.frame_roll -= _cross(f_pin * turn, wall * turn) + couple
 
-    # 2. Rocker and coupler of each lever balancer.
-    levers = scene.levers
-    couplers = np.zeros_like(theta, dtype=complex)  # Σ force of the crank on the couplers
-    pivots = np.zeros_like(theta, dtype=complex)
-    for lever in levers:
-        motion = four_bar(lever, theta, sense)
+
+def _lever_reactions(scene: Scene, theta: np.ndarray, sums: _Sums) -> None:
+    """Add the joints of each lever balancer's rocker and coupler to ``sums``."""
+    for lever in scene.levers:
+        motion = four_bar(lever, theta, scene.sense)
         g2, _, dd2 = motion.point("rocker", complex(*lever.rocker.cg))
         g3, _, dd3 = motion.point("coupler", complex(*lever.coupler.cg))
         m2a, m3a = lever.rocker.mass * dd2, lever.coupler.mass * dd3
@@ -153,30 +189,16 @@ def reactions(scene: Scene, theta: np.ndarray) -> Reactions:
         on_coupler_c = m3a - on_coupler_b
         on_rocker_a = m2a + on_coupler_b
         name = lever.label
-        forces[f"{name}: A"] = on_rocker_a
-        describe[f"{name}: A"] = f"frame on rocker of {name} (pivot A)"
-        forces[f"{name}: B"] = on_coupler_b
-        describe[f"{name}: B"] = f"rocker on coupler of {name} (joint B)"
-        forces[f"{name}: C"] = on_coupler_c
-        describe[f"{name}: C"] = f"crankshaft on coupler of {name} (second crank pin C)"
-        couplers += on_coupler_c
-        pivots += on_rocker_a
-        torque += _cross(motion.c, on_coupler_c)
-        frame_roll -= _cross(np.full_like(motion.c, motion.pivot), on_rocker_a)
-
-    # 3. The crankshaft: unbalances turning with it (throws, crankshaft,
-    # counterweights and CAD data on its axis) have m·a_G = −U·e^{i(θ+α)}.
-    unbalance = sum((u.unbalance * np.exp(1j * (c.throw + u.angle)) for c in scene.cylinders
-                     for u in c.throw_unbalances), 0j)
-    unbalance += sum((u.unbalance * np.exp(1j * u.angle) for u in scene.crankshaft_unbalances), 0j)
-    unbalance += sum((u.unbalance * np.exp(1j * u.angle) for s in scene.shafts if s.on_crank
-                      for u in s.unbalances), 0j)
-    bearing = crank_pins + couplers - unbalance * np.exp(1j * theta)
-    forces = {"D": bearing, **forces}
-    describe = {"D": "frame on crankshaft (main bearings, resultant)", **describe}
-    frame_force = -(bearing + pivots + walls)
-    return Reactions(theta, forces, describe, torque, np.array(couples).reshape(len(couples), len(theta)),
-                     frame_force, frame_roll)
+        sums.forces[f"{name}: A"] = on_rocker_a
+        sums.describe[f"{name}: A"] = f"frame on rocker of {name} (pivot A)"
+        sums.forces[f"{name}: B"] = on_coupler_b
+        sums.describe[f"{name}: B"] = f"rocker on coupler of {name} (joint B)"
+        sums.forces[f"{name}: C"] = on_coupler_c
+        sums.describe[f"{name}: C"] = f"crankshaft on coupler of {name} (second crank pin C)"
+        sums.couplers += on_coupler_c
+        sums.pivots += on_rocker_a
+        sums.torque += _cross(motion.c, on_coupler_c)
+        sums.frame_roll -= _cross(np.full_like(motion.c, motion.pivot), on_rocker_a)
 
 
 def joints(scene: Scene, *, samples_per_rev: int | None = None):

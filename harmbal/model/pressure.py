@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 
 import numpy as np
 
@@ -328,46 +328,109 @@ def combustion_trace(gas: Gas, crank_radius: float, rod_length: float, offset: f
     return _combustion_trace(gas.trace, gas.bore, crank_radius, rod_length, offset, heat)
 
 
+@dataclass(frozen=True)
+class _Cycle:
+    """What the parametric trace's pieces share: the combustion table, the
+    slider-crank, and the cycle's volumes and valve events. Dimensionless:
+    pressures in p_IVC, volumes in V_swept, heat in p_IVC·V_swept."""
+
+    c: Combustion
+    r: float
+    l: float
+    e: float
+    area: float
+    psi_tdc: float
+    c_tdc: float
+    swept: float
+    clearance: float
+    ivc: float
+    evo: float
+
+    @classmethod
+    def of(cls, c: Combustion, bore: float, r: float, l: float, e: float) -> _Cycle:
+        area = math.pi * bore**2 / 4
+        psi_tdc = firing_tdc_angle(r, l, e)
+        psi_bdc = bottom_dead_centre_angle(r, l, e)
+        swept = area * stroke(r, l, e)
+        return cls(c=c, r=r, l=l, e=e, area=area, psi_tdc=psi_tdc, c_tdc=top_dead_centre_travel(r, l, e),
+                   swept=swept, clearance=swept / (c.compression_ratio - 1), ivc=psi_bdc - 2 * math.pi - psi_tdc,
+                   evo=psi_bdc - psi_tdc)
+
+
+@dataclass(frozen=True, eq=False)
+class _ClosedCycle:
+    """The closed part integrated, linear in the heat Q: the table's angles,
+    which of them are closed, the pressure there as ``table[0] + Q·table[1]``,
+    the dense solutions per segment ``(low, high, sol)`` and the state at EVO
+    ``(p_h, p_q, W_h, W_q)``."""
+
+    alpha: np.ndarray
+    closed: np.ndarray
+    table: np.ndarray
+    solutions: list
+    at_evo: np.ndarray
+
+
 @lru_cache(maxsize=256)
 def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
                       heat: float | None) -> CombustionTrace:
-    from scipy.integrate import quad, solve_ivp
-    from scipy.optimize import minimize_scalar
+    cycle = _Cycle.of(c, bore, r, l, e)
+    p_ref, q_ref = c.intake_pressure, c.intake_pressure * cycle.swept
+    closed = _integrate_closed(cycle)
+    p_h_evo, p_q_evo, w_h, w_q = closed.at_evo
+    w_base, w_blow = _open_work(cycle)
+    # IMEP/p_IVC = a + b·Q (dimensionless), exactly linear in the heat.
+    imep_a = w_h + w_base + p_h_evo * w_blow
+    imep_b = w_q + p_q_evo * w_blow
+    peak = partial(_peak, closed)
+    motored_peak = peak(0.0)[0]
+    q = heat / q_ref if heat is not None else _heat_for_target(c, peak, motored_peak, imep_a, imep_b)
+    alpha, inside = closed.alpha, closed.closed
+    pressure = np.empty(alpha.size)
+    pressure[inside] = closed.table[0] + q * closed.table[1]
+    pressure[~inside] = _base(cycle, alpha[~inside]) + (p_h_evo + q * p_q_evo) * _blow(cycle, alpha[~inside])
+    peak_value, peak_angle = peak(q)
+    return CombustionTrace(
+        alpha=alpha, pressure=pressure * p_ref, heat=q * q_ref, burnt_at_evo=float(_burnt(c, cycle.evo)[0]),
+        imep=(imep_a + q * imep_b) * p_ref, peak_pressure=peak_value * p_ref, peak_angle=float(peak_angle),
+        motored_peak=motored_peak * p_ref, motored_imep=imep_a * p_ref, swept_volume=cycle.swept,
+        clearance_volume=cycle.clearance, ivc=cycle.ivc, evo=cycle.evo)
 
-    area = math.pi * bore**2 / 4
-    psi_tdc = firing_tdc_angle(r, l, e)
-    psi_bdc = bottom_dead_centre_angle(r, l, e)
-    c_tdc = top_dead_centre_travel(r, l, e)
-    swept = area * stroke(r, l, e)
-    clearance = swept / (c.compression_ratio - 1)
-    ivc, evo = psi_bdc - 2 * math.pi - psi_tdc, psi_bdc - psi_tdc
-    # Dimensionless: pressures in p_IVC, volumes in V_swept, heat in p_IVC·V_swept.
-    p_ref, q_ref = c.intake_pressure, c.intake_pressure * swept
 
-    def volume(alpha):
-        """V / V_swept and its α-derivative."""
-        kin = slider_crank(np.asarray(alpha, dtype=float) + psi_tdc, r, l, e)
-        return (clearance + area * (c_tdc - kin.b)) / swept, -area * kin.db / swept
+def _volume(cycle: _Cycle, alpha):
+    """V / V_swept and its α-derivative."""
+    kin = slider_crank(np.asarray(alpha, dtype=float) + cycle.psi_tdc, cycle.r, cycle.l, cycle.e)
+    return (cycle.clearance + cycle.area * (cycle.c_tdc - kin.b)) / cycle.swept, -cycle.area * kin.db / cycle.swept
 
-    def burnt(alpha):
-        """Wiebe x_b and dx_b/dα (continued past the end of the duration: no jump in the heat release rate)."""
-        alpha = np.asarray(alpha, dtype=float)
-        s = np.clip((alpha - c.start) / c.duration, 0.0, None)
-        decay = np.exp(-c.efficiency * s ** (c.shape + 1))
-        rate = np.where(alpha > c.start, c.efficiency * (c.shape + 1) / c.duration * s**c.shape * decay, 0.0)
-        return 1 - decay, rate
 
-    evaluations = itertools.count(1)
+def _burnt(c: Combustion, alpha):
+    """Wiebe x_b and dx_b/dα (continued past the end of the duration: no jump in the heat release rate)."""
+    alpha = np.asarray(alpha, dtype=float)
+    s = np.clip((alpha - c.start) / c.duration, 0.0, None)
+    decay = np.exp(-c.efficiency * s ** (c.shape + 1))
+    rate = np.where(alpha > c.start, c.efficiency * (c.shape + 1) / c.duration * s**c.shape * decay, 0.0)
+    return 1 - decay, rate
 
-    def rates(alpha, y):
-        # y = (p_h, p_q, W_h, W_q): the pressure is linear in Q, p = p_h + Q·p_q, and so is the work.
-        if next(evaluations) > MAX_EVALUATIONS:
-            raise _Stiff
-        v, dv = volume(alpha)
-        x, dx = burnt(alpha)
-        kappa = c.compression_exponent + (c.expansion_exponent - c.compression_exponent) * x
-        return [-kappa * y[0] * dv / v, -kappa * y[1] * dv / v + (kappa - 1) * dx / v, y[0] * dv, y[1] * dv]
 
+def _rates(cycle: _Cycle, evaluations, alpha, y):
+    """The closed cycle's first law: y = (p_h, p_q, W_h, W_q), the pressure
+    linear in Q, p = p_h + Q·p_q, and so is the work. Raises :class:`_Stiff`
+    past :data:`MAX_EVALUATIONS` calls (counted by ``evaluations``)."""
+    if next(evaluations) > MAX_EVALUATIONS:
+        raise _Stiff
+    c = cycle.c
+    v, dv = _volume(cycle, alpha)
+    x, dx = _burnt(c, alpha)
+    kappa = c.compression_exponent + (c.expansion_exponent - c.compression_exponent) * x
+    return [-kappa * y[0] * dv / v, -kappa * y[1] * dv / v + (kappa - 1) * dx / v, y[0] * dv, y[1] * dv]
+
+
+def _integrate_closed(cycle: _Cycle) -> _ClosedCycle:
+    """Integrate the closed part, IVC to EVO, on the table's angles."""
+    from scipy.integrate import solve_ivp
+
+    c, ivc, evo = cycle.c, cycle.ivc, cycle.evo
+    rates = partial(_rates, cycle, itertools.count(1))
     n = round(720 / TABLE_STEP_DEG)
     alpha = ivc + (4 * math.pi / n) * np.arange(n)
     closed = alpha <= evo + 1e-9 * (4 * math.pi / n)
@@ -382,79 +445,91 @@ def _combustion_trace(c: Combustion, bore: float, r: float, l: float, e: float,
         except _Stiff:
             raise _infeasible("compression_ratio", c.compression_ratio, (
                 f"the closed cycle does not integrate in {MAX_EVALUATIONS} steps (a clearance volume of "
-                f"{clearance / swept:.3g} of the swept volume makes it too stiff): lower compression_ratio to a real "
-                "engine's (below 100)"), unit=None) from None
+                f"{cycle.clearance / cycle.swept:.3g} of the swept volume makes it too stiff): lower "
+                "compression_ratio to a real engine's (below 100)"), unit=None) from None
         if solution.status != 0:
             raise _infeasible("compression_ratio", c.compression_ratio, f"the closed cycle does not integrate "
                               f"({solution.message}): check compression_ratio and the exponents", unit=None)
         table[:, inside[closed]] = solution.y[:2]
         solutions.append((low, high, solution.sol))
         y = solution.y[:, -1] if solution.t.size and solution.t[-1] == high else solution.sol(high)
-    p_h_evo, p_q_evo, w_h, w_q = y
+    return _ClosedCycle(alpha=alpha, closed=closed, table=table, solutions=solutions, at_evo=y)
 
-    def closed_pressure(a: float, q: float) -> float:
-        for low, high, sol in solutions:
-            if low <= a <= high:
-                values = sol(a)
-                return values[0] + q * values[1]
-        raise ValueError(a)
 
-    # The open part: p = base(α) + p_EVO·blow(α), both explicit; its work splits the same way.
-    blowdown, overlap, exchange = math.radians(BLOWDOWN_DEG), math.radians(OVERLAP_DEG), 2 * math.pi
-    p_exh, p_int = c.exhaust_pressure / p_ref, 1.0
+def _closed_pressure(closed: _ClosedCycle, a: float, q: float) -> float:
+    """The closed part's pressure at angle ``a`` for heat ``q``, from the dense solutions."""
+    for low, high, sol in closed.solutions:
+        if low <= a <= high:
+            values = sol(a)
+            return values[0] + q * values[1]
+    raise ValueError(a)
 
-    def blow(a):
-        s = np.clip((np.asarray(a, dtype=float) - evo) / blowdown, 0.0, 1.0)
-        return 0.5 * (1 + np.cos(np.pi * s))
 
-    def base(a):
-        a = np.asarray(a, dtype=float)
-        s = np.clip((a - exchange + overlap / 2) / overlap, 0.0, 1.0)
-        return p_exh * (1 - blow(a)) + (p_int - p_exh) * 0.5 * (1 - np.cos(np.pi * s))
+# The open part: p = base(α) + p_EVO·blow(α), both explicit; its work splits the same way.
 
+
+def _blow(cycle: _Cycle, a):
+    """The blow-down's share of the pressure at EVO: 1 at EVO, down to 0 along a half cosine."""
+    s = np.clip((np.asarray(a, dtype=float) - cycle.evo) / math.radians(BLOWDOWN_DEG), 0.0, 1.0)
+    return 0.5 * (1 + np.cos(np.pi * s))
+
+
+def _base(cycle: _Cycle, a):
+    """The open part's pressure without the blow-down: exhaust pressure, then
+    intake pressure after the valve overlap."""
+    overlap, exchange = math.radians(OVERLAP_DEG), 2 * math.pi
+    p_exh, p_int = cycle.c.exhaust_pressure / cycle.c.intake_pressure, 1.0
+    a = np.asarray(a, dtype=float)
+    s = np.clip((a - exchange + overlap / 2) / overlap, 0.0, 1.0)
+    return p_exh * (1 - _blow(cycle, a)) + (p_int - p_exh) * 0.5 * (1 - np.cos(np.pi * s))
+
+
+def _open_work(cycle: _Cycle) -> tuple[float, float]:
+    """The open part's work per V_swept: of ``base``, and of ``blow`` per unit pressure at EVO."""
+    from scipy.integrate import quad
+
+    blowdown, overlap, exchange, evo = math.radians(BLOWDOWN_DEG), math.radians(OVERLAP_DEG), 2 * math.pi, cycle.evo
     points = [evo + blowdown, exchange - overlap / 2, exchange + overlap / 2]
-    end = ivc + 4 * math.pi
-    w_base = quad(lambda a: float(base(a) * volume(a)[1]), evo, end, points=points, epsabs=1e-13, epsrel=1e-12,
-                  limit=200)[0]
-    w_blow = quad(lambda a: float(blow(a) * volume(a)[1]), evo, evo + blowdown, epsabs=1e-13, epsrel=1e-12)[0]
-    # IMEP/p_IVC = a + b·Q (dimensionless), exactly linear in the heat.
-    imep_a = w_h + w_base + p_h_evo * w_blow
-    imep_b = w_q + p_q_evo * w_blow
+    end = cycle.ivc + 4 * math.pi
+    w_base = quad(lambda a: float(_base(cycle, a) * _volume(cycle, a)[1]), evo, end, points=points, epsabs=1e-13,
+                  epsrel=1e-12, limit=200)[0]
+    w_blow = quad(lambda a: float(_blow(cycle, a) * _volume(cycle, a)[1]), evo, evo + blowdown, epsabs=1e-13,
+                  epsrel=1e-12)[0]
+    return w_base, w_blow
 
-    def peak(q: float) -> tuple[float, float]:
-        values = table[0] + q * table[1]
-        i = int(np.argmax(values))
-        low, high = alpha[max(i - 1, 0)], alpha[min(i + 1, table.shape[1] - 1)]
-        found = minimize_scalar(lambda a: -closed_pressure(a, q), bounds=(low, high), method="bounded",
-                                options={"xatol": 1e-12})
-        return (-found.fun, found.x) if -found.fun > values[i] else (values[i], alpha[i])
 
-    motored_peak = peak(0.0)[0]
-    if heat is not None:
-        q = heat / q_ref
-    elif c.peak_pressure is not None:
+def _peak(closed: _ClosedCycle, q: float) -> tuple[float, float]:
+    """The largest pressure for heat ``q`` and its angle: the table's largest,
+    refined between its neighbours on the dense solution."""
+    from scipy.optimize import minimize_scalar
+
+    alpha, table = closed.alpha, closed.table
+    values = table[0] + q * table[1]
+    i = int(np.argmax(values))
+    low, high = alpha[max(i - 1, 0)], alpha[min(i + 1, table.shape[1] - 1)]
+    found = minimize_scalar(lambda a: -_closed_pressure(closed, a, q), bounds=(low, high), method="bounded",
+                            options={"xatol": 1e-12})
+    return (-found.fun, found.x) if -found.fun > values[i] else (values[i], alpha[i])
+
+
+def _heat_for_target(c: Combustion, peak, motored_peak: float, imep_a: float, imep_b: float) -> float:
+    """The heat release (dimensionless) that meets the scene's target, peak
+    pressure or IMEP (``a + b·Q``); refuses a target no heat Q > 0 reaches."""
+    p_ref = c.intake_pressure
+    if c.peak_pressure is not None:
         target = c.peak_pressure / p_ref
         if not target > motored_peak:
             raise _infeasible("peak_pressure", c.peak_pressure,
                               f"below the motored peak pressure {motored_peak * p_ref / 1e5:.6g} bar (compression "
                               "alone reaches it): raise the target, or lower compression_ratio or intake_pressure")
-        q = _heat_for_peak(peak, target, c.peak_pressure)
-    else:
-        target = c.imep / p_ref
-        q = (target - imep_a) / imep_b if imep_b > 0 else -1.0
-        if not q > 0:
-            raise _infeasible("imep", c.imep, f"no heat release reaches it: the motored IMEP is "
-                              f"{imep_a * p_ref / 1e5:.6g} bar and heat released by EVO adds to it only "
-                              f"{'positively' if imep_b > 0 else 'nothing'}")
-    pressure = np.empty(n)
-    pressure[closed] = table[0] + q * table[1]
-    pressure[~closed] = base(alpha[~closed]) + (p_h_evo + q * p_q_evo) * blow(alpha[~closed])
-    peak_value, peak_angle = peak(q)
-    return CombustionTrace(
-        alpha=alpha, pressure=pressure * p_ref, heat=q * q_ref, burnt_at_evo=float(burnt(evo)[0]),
-        imep=(imep_a + q * imep_b) * p_ref, peak_pressure=peak_value * p_ref, peak_angle=float(peak_angle),
-        motored_peak=motored_peak * p_ref, motored_imep=imep_a * p_ref, swept_volume=swept, clearance_volume=clearance,
-        ivc=ivc, evo=evo)
+        return _heat_for_peak(peak, target, c.peak_pressure)
+    target = c.imep / p_ref
+    q = (target - imep_a) / imep_b if imep_b > 0 else -1.0
+    if not q > 0:
+        raise _infeasible("imep", c.imep, f"no heat release reaches it: the motored IMEP is "
+                          f"{imep_a * p_ref / 1e5:.6g} bar and heat released by EVO adds to it only "
+                          f"{'positively' if imep_b > 0 else 'nothing'}")
+    return q
 
 
 def _heat_for_peak(peak, target: float, given: float) -> float:

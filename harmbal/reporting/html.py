@@ -754,7 +754,7 @@ def _stored_scene(attrs):
     import json
 
     from ..scene import SceneError, scene_from_text
-    from ..scene.schema import _MISSING, Problem
+    from ..scene.schema import MISSING, Problem
 
     source = attrs.get("source", "<scene>")
     files = None
@@ -764,7 +764,7 @@ def _stored_scene(attrs):
         except (TypeError, ValueError):
             files = None
         if not (isinstance(files, dict) and all(isinstance(v, str) for v in files.values())):
-            raise SceneError([Problem(source, "(stored trace files)", _MISSING, "the archive's /scene attribute "
+            raise SceneError([Problem(source, "(stored trace files)", MISSING, "the archive's /scene attribute "
                                       "scene_files is not a JSON table of file texts: the archive is damaged")])
     return scene_from_text(attrs["scene_toml"], source, files=files)
 

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError
-from ..scene.schema import _MISSING, Problem
+from ..scene.schema import MISSING, Problem
 from ..scene.units import SI_UNITS, QuantityError
 from .keys import get_key, key_dimension, key_error, parse_path
 from .quantities import any_quantity, typed_units
@@ -118,7 +118,7 @@ def draw_tolerances(scene: Scene, tolerances: Mapping[str, Normal | Uniform | We
             # A cylinder without its own value takes the shared table's, as the reader merges them.
             nominal = get_key(raw, key.partition(".")[2])
         if nominal is None and not isinstance(dist, WeightClasses):
-            raise key_error(scene.source, key, _MISSING, "not written in the scene: a tolerance is a deviation from "
+            raise key_error(scene.source, key, MISSING, "not written in the scene: a tolerance is a deviation from "
                             "the nominal value, write the nominal in the scene file")
         try:
             centre, dimension = (0.0, None) if nominal is None else any_quantity(nominal)

@@ -21,7 +21,7 @@ import numpy as np
 from ..model.budget import check_budget
 from ..orders.linear import LinearPhasors, geometry_key, linear_phasors, slot_values
 from ..scene import Scene
-from ..scene.schema import _MISSING
+from ..scene.schema import MISSING
 from .keys import key_error, parse_path, toml_value
 from .quantities import key_units, si_values
 from .requests import KeyValues, SweepOptions
@@ -126,7 +126,7 @@ def _check_scene(scene: Scene, design: bool) -> None:
     if reason:
         raise key_error(scene.source, "(scene)", scene.name, reason)
     if design and scene.design is None:
-        raise key_error(scene.source, "design", _MISSING, "designing per variant needs the scene's [design] table "
+        raise key_error(scene.source, "design", MISSING, "designing per variant needs the scene's [design] table "
                         "(docs/design.md)")
 
 

@@ -31,7 +31,7 @@ What it gives, in engineering units (N, N m, degrees, rpm):
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
@@ -127,7 +127,7 @@ def _speed_dim(ds: xr.Dataset) -> str | None:
     dimension), None for a Dataset at one speed."""
     name = "rpm" if "rpm" in ds.coords else "speed"
     dims = ds[name].dims if name in ds.coords else ()
-    return dims[0] if dims else None
+    return cast(str, dims[0]) if dims else None  # harmbal names its dimensions with strings
 
 
 def speed_index(ds: xr.Dataset, rpm: float) -> int:

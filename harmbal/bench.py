@@ -90,9 +90,9 @@ def _time_domain(scene, backend: str = "scipy", workers: int | None = None):
     FFT of the six summed signals, scaled to the scene's speed (what
     :func:`harmbal.order_spectrum` of :func:`harmbal.simulate` computes,
     without building the Datasets)."""
-    from .orders.spectrum import phasors
-    from .model.sampling import choose_samples
     from .model.evaluate import evaluate
+    from .model.sampling import choose_samples
+    from .orders.spectrum import phasors
 
     n, kmax, w2 = choose_samples(scene), scene.sampling.max_order, scene.speeds[0] ** 2
 
@@ -117,10 +117,10 @@ def _datasets(scene):
 
 def cases(scene) -> list[Case]:
     """The settings measured on one engine (each differs from the default in one thing)."""
+    from .model.evaluate import evaluate
+    from .model.sampling import choose_samples
     from .orders.phasors import order_phasors
     from .orders.spectrum import phasors
-    from .model.sampling import choose_samples
-    from .model.evaluate import evaluate
 
     default_samples = choose_samples(scene)
     out = []
@@ -238,7 +238,8 @@ def run(engines: Sequence[str] = tuple(ENGINES), lambdas: Sequence[float] = LAMB
                              "setting": case.setting, "timed": case.timed, "samples": case.samples,
                              "error_force": ef, "error_moment": em, "error": max(ef, em), "seconds": elapsed})
             if progress:
-                progress(f"{name} λ={lam:g}: {sum(1 for r in rows if r['engine'] == name and r['lambda'] == lam)} cases")
+                counted = sum(1 for r in rows if r["engine"] == name and r["lambda"] == lam)
+                progress(f"{name} λ={lam:g}: {counted} cases")
     return rows
 
 

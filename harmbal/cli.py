@@ -20,6 +20,7 @@ import dataclasses
 import shlex
 import sys
 import warnings
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -158,8 +159,9 @@ def _add_report_command(commands) -> argparse.ArgumentParser:
 def _add_loads_command(commands) -> argparse.ArgumentParser:
     """Add ``harmbal loads`` (bearing and interface loads) to the subcommands."""
     loads = commands.add_parser(
-        "loads", help="bearing and interface loads: crank train joints, main bearings, balancer bearings and fasteners; "
-                      "clearance between moving parts",
+        "loads",
+        help="bearing and interface loads: crank train joints, main bearings, balancer bearings and fasteners; "
+             "clearance between moving parts",
         description="Compute the loads of the crank train's joints per cylinder (side thrust, small end, big end and "
                     "crank pin, with the cylinder pressure over the working cycle if the scene has gas), the main "
                     "bearings' loads by the statically determinate split ([loads] main_bearings), and the balancers' "
@@ -324,11 +326,12 @@ def _run(args) -> None:
     if "joints" in tree.children:
         import dataclasses
 
-        from .views.stars import stars, with_free_vectors
         from .reporting.tables import joints_table, lever_orders_table
+        from .views.stars import stars, with_free_vectors
 
         print()
-        print(lever_orders_table(with_free_vectors(tree["stars"].ds, tree["orders"].ds), stars(dataclasses.replace(scene, levers=()))))
+        free = with_free_vectors(tree["stars"].ds, tree["orders"].ds)
+        print(lever_orders_table(free, stars(dataclasses.replace(scene, levers=()))))
         print()
         print(joints_table(tree["joints"].ds))
     if "clearance" in tree.children:
@@ -523,7 +526,7 @@ def _sweep_sets(args, scene) -> dict:
                      values=args.monte_carlo * len(args.tol))
     else:
         counts = {key: len(values) for key, values in args.sets}
-        largest = max(counts, key=counts.get)
+        largest = max(counts, key=lambda key: counts[key])
         sweep.update(variants=max(counts.values()) if args.zip else math.prod(counts.values()), key=largest,
                      value=f"{counts[largest]} values", values=sum(counts.values()),
                      typed=sum(len(v) for _, v in args.sets if isinstance(v, _Range) and v.typed))
@@ -763,12 +766,12 @@ def _share(text: str) -> float:
 
 
 def _design(args) -> None:
+    from .balance.design import Design, design
+    from .balance.lever import LeverDesign, design_lever
     from .balance.solvers import DesignError
-    from .balance.design import design
     from .balance.verify import verify
-    from .scene.requests import LeverDesignRequest
-    from .balance.lever import design_lever
     from .reporting.tables import design_table, lever_design_table, verify_table
+    from .scene.requests import LeverDesignRequest
 
     _check_output(args.output, (".toml",), "the design is written as a scene file (.toml)")
     if args.output.resolve() == args.scene.resolve():
@@ -782,18 +785,19 @@ def _design(args) -> None:
         result = design_lever(scene, method=args.method, name=args.name) if lever else design(scene, name=args.name)
     except DesignError as exc:
         raise _BadInput(str(exc)) from None
-    if lever:
+    if isinstance(result, LeverDesign):  # lever
         print(lever_design_table(result))
         if not result.verified:
             raise _Disagreement("the exact model does not confirm the design; nothing written")
         _write_scene(args.output, result.text)
         return
+    assert isinstance(result, Design)  # design() of a scene without [design.lever]
     print(design_table(result))
     check = verify(result.scene)
     print()
     print(verify_table(check))
     for sentence in result.worsened:  # a warning, not a failure: the exit status stays the design's
-        warnings.warn(sentence)
+        warnings.warn(sentence, stacklevel=3)  # at the caller of main(): the command's handler is main's callee
     if not result.feasible and not args.partial:
         raise _Disagreement("some targets cannot be cancelled (see above); nothing written (--partial writes "
                             "the design anyway)")
@@ -833,8 +837,8 @@ def _verify(args) -> None:
     import dataclasses
 
     from .balance.verify import VerifyError, verify
-    from .scene.requests import VerifyRequest
     from .reporting.tables import verify_table
+    from .scene.requests import VerifyRequest
 
     scene = _load(args.scene, args.negligible)
     _budget(scene, "verify")
@@ -856,7 +860,7 @@ def _verify(args) -> None:
         raise _BadInput(str(exc)) from None
     print(verify_table(check))
     for sentence in check.attrs["worsened"].splitlines():  # a warning: the exit status stays the verdict's
-        warnings.warn(sentence)
+        warnings.warn(sentence, stacklevel=3)  # at the caller of main(), as in _design
     if check.attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the balancers within the tolerance")
 
@@ -886,8 +890,8 @@ class _Disagreement(Exception):
 
 def _stars(args) -> None:
     from .analysis import analyse
-    from .views.stars import verify_orders, with_free_vectors
     from .reporting.tables import stars_table, verification_table
+    from .views.stars import verify_orders, with_free_vectors
 
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
@@ -996,7 +1000,7 @@ def _show(args) -> None:
         print(loads_table(tree["loads"].ds))
 
 
-def _one_line_warnings():
+def _one_line_warnings() -> Callable[..., None]:
     """A ``warnings.showwarning`` that prints each text once, as one line on
     stderr like errors (the same warning can come from several call sites)."""
     printed: set[str] = set()

@@ -137,7 +137,9 @@ def _remember(values: np.ndarray, w2, unit, constant) -> np.ndarray:
     assigned to either), with its factors recorded."""
     key = id(values)
     values.flags.writeable = False
-    _FACTORS[key] = (weakref.ref(values, lambda _, key=key: _FACTORS.pop(key, None)), w2, unit, constant)
+    # mypy cannot infer a lambda with a default argument (the key bound now); it is a plain callback.
+    _FACTORS[key] = (weakref.ref(values, lambda _, key=key: _FACTORS.pop(key, None)),  # type: ignore[misc]
+                     w2, unit, constant)
     return values
 
 
@@ -212,7 +214,8 @@ class Speeds:
         indexes both along ``speed``)."""
         return {
             "speed": variable(self.lead, self.values, {"units": "rad/s", "long_name": "crank speed ω"}),
-            "rpm": variable(self.lead, self.rpm, {"units": "rpm", "long_name": "crank speed in revolutions per minute"}),
+            "rpm": variable(self.lead, self.rpm,
+                            {"units": "rpm", "long_name": "crank speed in revolutions per minute"}),
         }
 
     def scaled(self, unit, constant=None):
@@ -344,7 +347,9 @@ _PLAIN_KINDS = frozenset("biufcUS")
 def _dataset_direct(data: dict, coords: dict, attrs: dict):
     import xarray as xr
 
-    variables, indexes, dims = {}, {}, {}
+    variables: dict = {}
+    indexes: dict = {}
+    dims: dict = {}
     for name, var in {**coords, **data}.items():
         for dim, size in zip(var.dims, var.shape):
             if dims.setdefault(dim, size) != size:
@@ -470,15 +475,19 @@ def _direct_matches_public() -> bool:
 
     speeds = Speeds([10.0, 20.0, 30.0])
     lazy = indexing.LazilyIndexedArray(speed_scaled(speeds.w2, np.arange(3.0), np.ones(3)), _whole(2))
-    coords = [("speed", ("speed",), speeds.values, {"units": "rad/s"}), ("rpm", ("speed",), speeds.rpm, {"units": "rpm"}),
-              ("axis", ("axis",), np.array(AXES), None), ("order", ("order",), np.arange(1, 3), {"long_name": "n"})]
+    coords = [("speed", ("speed",), speeds.values, {"units": "rad/s"}),
+              ("rpm", ("speed",), speeds.rpm, {"units": "rpm"}),
+              ("axis", ("axis",), np.array(AXES), None),
+              ("order", ("order",), np.arange(1, 3), {"long_name": "n"})]
     data = [("force", ("speed", "axis"), np.outer(speeds.w2, [1.0, -2.0, 0.5]), {"units": "N"}),
-            ("phasor", ("order", "axis"), np.ones((2, 3)) * (1 + 2j), None), ("free", ("order",), np.array([True, False]), {}),
+            ("phasor", ("order", "axis"), np.ones((2, 3)) * (1 + 2j), None),
+            ("free", ("order",), np.array([True, False]), {}),
             ("scale", (), np.array(2.5), {"units": "N"}), ("label", ("axis",), np.array([b"a", b"b", b"c"]), None),
             ("lazy", ("speed", "axis"), lazy, {"units": "N"})]
 
     def build(make_variable, make_dataset, make_tree):
-        made = [{name: make_variable(dims, values, attrs) for name, dims, values, attrs in kind} for kind in (data, coords)]
+        made = [{name: make_variable(dims, values, attrs) for name, dims, values, attrs in kind}
+                for kind in (data, coords)]
         group = make_dataset(*made, {"title": "sample"})
         return made, group, make_tree({"source": "sample"}, {"a": group, "b": make_dataset({}, made[1], {})})
 
@@ -516,7 +525,8 @@ def _same_state(a, b, seen: set | None = None) -> bool:
     slots = sorted({s for cls in type(a).__mro__ for s in getattr(cls, "__slots__", ()) if s != "__weakref__"})
     if not slots and not hasattr(a, "__dict__"):
         return False
-    return (all(hasattr(a, s) == hasattr(b, s) and (not hasattr(a, s) or _same_state(getattr(a, s), getattr(b, s), seen))
+    return (all(hasattr(a, s) == hasattr(b, s)
+                and (not hasattr(a, s) or _same_state(getattr(a, s), getattr(b, s), seen))
                 for s in slots)
             and _same_state(getattr(a, "__dict__", {}), getattr(b, "__dict__", {}), seen))
 

@@ -257,7 +257,7 @@ def _type_phasors(cyl: Cylinder, model: Model, grid: list, max_order: int) -> li
         ds = -g * dg / s
         dds = -(dg * dg + g * ddg) / s - (g * dg) ** 2 / s**3
         pin_b = ((r * cos + s, e), (-r * sin + ds, mpf(0)), (-r * cos + dds, mpf(0)))
-        bodies = [
+        bodies: list[tuple[Any, tuple]] = [  # (mass, (position, first, second derivative))
             (m_piston, ((pin_b[0][0] + piston_offset[0], e + piston_offset[1]), pin_b[1], pin_b[2])),
             (m_pin_b, pin_b),
             (m_pin_a, pin_a),

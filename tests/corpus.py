@@ -432,7 +432,8 @@ def _sweeps() -> list[Case]:
     base = edited("inline-4")
     only = ("sweep",)
     return [
-        Case("sweep-1e8", "sweep", base, "piston.mass", commands=only, args=sweep_args("piston.mass=0.3:0.5:100000000")),
+        Case("sweep-1e8", "sweep", base, "piston.mass", commands=only,
+             args=sweep_args("piston.mass=0.3:0.5:100000000")),
         Case("sweep-grid-1e10", "sweep", base, "piston.mass", commands=only,
              args=sweep_args("piston.mass=0.3:0.5:100000", "rod.mass=0.3:0.5:100000")),
         Case("sweep-unknown-key", "sweep", base, "pistn", commands=only, args=sweep_args("pistn.mass=0.3:0.5:3")),

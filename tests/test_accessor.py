@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_close_to_scale
 
 import harmbal as hb
-from conftest import assert_close_to_scale
 from harmbal.orders.spectrum import CLASSES, ZERO, ZERO_RTOL
 from harmbal.reporting.plots import order_spectrum_figure, stars_figure
 from harmbal.scene import scene_from_text

@@ -161,7 +161,8 @@ def test_cf_conventions_and_no_lowercase_conventions(v8, tmp_path):
         assert "crank axis" in nc.getncattr("harmbal_conventions")
         # one attribute that a case-blind reader could take for CF's: none other than the root's Conventions
         for group in [nc, *nc.groups.values()]:
-            assert [a for a in group.ncattrs() if a.lower() == "conventions"] == (["Conventions"] if group is nc else [])
+            conventions = [a for a in group.ncattrs() if a.lower() == "conventions"]
+            assert conventions == (["Conventions"] if group is nc else [])
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_close_to_scale
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import harmbal as hb
-from conftest import assert_close_to_scale
 
 DATASETS = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 

@@ -279,7 +279,8 @@ def test_the_default_budget_is_at_most_4_gib_and_what_the_machine_leaves():
     # Under an address-space limit (ulimit -v) the budget is what the limit leaves, not the machine's memory.
     code = "from harmbal.model import budget; print(budget.memory_budget())"
     limited = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True,
-                             preexec_fn=_limit, env={k: v for k, v in os.environ.items() if not k.startswith("HARMBAL_")})
+                             preexec_fn=_limit,
+                             env={k: v for k, v in os.environ.items() if not k.startswith("HARMBAL_")})
     assert 0 < float(limited.stdout) < 0.8 * LIMIT
 
 

@@ -7,9 +7,9 @@ scales (no shared code with the classifier), the bundled engines, and the
 closed-form inline-3 (forces cancel at orders 1, 2, 4: zero; the first-order
 moment √3·m r ω² a: free)."""
 
-from pathlib import Path
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest

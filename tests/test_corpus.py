@@ -74,8 +74,9 @@ def _run(command: str, jobs: list[dict], root: Path) -> list[dict]:
         lines = [json.loads(line) for line in results_file.read_text().splitlines()]
         results += lines
         if len(lines) < len(remaining):  # the process died on the next case
-            results.append({"name": remaining[len(lines)]["name"], "exit": done.returncode, "stderr": done.stderr[-2000:],
-                            "stdout": "", "escaped": f"the process died (exit {done.returncode})", "seconds": None})
+            results.append({"name": remaining[len(lines)]["name"], "exit": done.returncode,
+                            "stderr": done.stderr[-2000:], "stdout": "",
+                            "escaped": f"the process died (exit {done.returncode})", "seconds": None})
     for result, job in zip(results, jobs):
         result["out"], result["scene"] = job["out"], job["scene"]
     return results

@@ -435,7 +435,8 @@ def test_balance_shaft_and_lanchester_weights_from_blanks():
     assert plus.unbalances[0].angle == pytest.approx(math.radians(10 + 15 + 5), rel=1e-14)
     assert minus.unbalances[0].angle == pytest.approx(math.radians(10 + 15 - 5), rel=1e-14)
     with pytest.raises(SceneError, match=r"balance_shaft\[1\].unbalance\[2\] = .*not both"):
-        scene_from_text(ENGINE + SHAFT.replace('unbalance = "0.01 kg m"', 'unbalance = "0.01 kg m"\nthickness = "1 mm"'))
+        scene_from_text(ENGINE + SHAFT.replace('unbalance = "0.01 kg m"',
+                                               'unbalance = "0.01 kg m"\nthickness = "1 mm"'))
 
 
 SHAFT_DESIGN = """

@@ -16,10 +16,9 @@ import tomli_w
 
 import harmbal as hb
 from harmbal.balance.design import BOUND_SIDES
-from harmbal.scene.requests import PEAK_SAMPLES
 from harmbal.cli import main
-from harmbal.scene.requests import Candidate, DesignRequest
 from harmbal.scene import SceneError, scene_from_text
+from harmbal.scene.requests import PEAK_SAMPLES, Candidate, DesignRequest
 
 ROOT = Path(__file__).resolve().parent.parent
 ENGINES = ROOT / "datasets" / "engines"
@@ -300,7 +299,8 @@ def test_inline4_design_names_the_height_difference_that_cancels_the_roll():
     """Oracle: the height difference derived in the test; the design's hint
     for a pair at one height states it (6 significant digits)."""
     dz = inline4_height_difference()
-    hint = [m for m in inline4_roll_design((-0.11, -0.11)).messages if "the pair would also cancel the order 2 roll" in m]
+    messages = inline4_roll_design((-0.11, -0.11)).messages
+    hint = [m for m in messages if "the pair would also cancel the order 2 roll" in m]
     assert len(hint) == 1
     stated = float(hint[0].split("z₊ − z₋ = ")[1].split(" mm")[0])
     assert stated == pytest.approx(dz * 1e3, rel=1e-5)

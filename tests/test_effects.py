@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 import harmbal as hb
-from harmbal.model import kinematics
-from harmbal.model import loads
 from harmbal.model import evaluate as core
+from harmbal.model import kinematics, loads
 
 EFFECTS = ["reciprocating", "rotating", "rod_inertia", "mass_torque"]
 
@@ -53,7 +52,8 @@ def test_effects_superpose(base_scene):
     scale = float(total.moment_scale)
     base_scene["model"] = {"effects": ["reciprocating", "rotating", "rod_inertia"]}
     no_torque = hb.simulate(hb.load_scene(base_scene))
-    np.testing.assert_allclose(sum(p.force for p in parts), no_torque.force, rtol=0, atol=1e-12 * float(total.force_scale))
+    np.testing.assert_allclose(sum(p.force for p in parts), no_torque.force, rtol=0,
+                               atol=1e-12 * float(total.force_scale))
     np.testing.assert_allclose(sum(p.moment for p in parts), no_torque.moment, rtol=0, atol=1e-12 * scale)
     # The drive-torque reaction acts about the crank axis only.
     diff = (total.moment - no_torque.moment).values

@@ -112,8 +112,10 @@ def test_csv_trace_relative_to_the_scene_file(tmp_path):
 
     (tmp_path / "traces").mkdir()
     write_csv(tmp_path / "traces", csv_text())
-    scene = {"engine": {"name": "s", "speed": "3000 rpm"}, "geometry": {"crank_radius": "40 mm", "rod_length": "140 mm"},
-             "piston": {"mass": "0.4 kg"}, "rod": {"mass": "0.4 kg", "cg_from_big_end": "40 mm", "inertia": "0.001 kg m^2"},
+    scene = {"engine": {"name": "s", "speed": "3000 rpm"},
+             "geometry": {"crank_radius": "40 mm", "rod_length": "140 mm"},
+             "piston": {"mass": "0.4 kg"},
+             "rod": {"mass": "0.4 kg", "cg_from_big_end": "40 mm", "inertia": "0.001 kg m^2"},
              "cylinder": [{"throw": "0 deg"}], "gas": {"bore": "86 mm", "trace": {"file": "traces/trace.csv"}}}
     path = tmp_path / "engine.toml"
     path.write_text(tomli_w.dumps(scene))

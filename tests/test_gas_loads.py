@@ -10,11 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_close_to_scale
 
 import harmbal as hb
 import harmbal.analysis
 import harmbal.views.time
-from conftest import assert_close_to_scale
 from harmbal.model import gas as gas_module
 from harmbal.model.evaluate import evaluate
 from harmbal.model.pressure import cylinder_pressure
@@ -427,8 +427,8 @@ def test_loads_at_a_fluctuating_speed_against_finite_differences_in_time():
     def second(f, t):
         return (f(t + h) - 2 * f(t) + f(t - h)) / h**2
 
-    fz = np.array([-(c.piston.mass + small) * second(lambda s: points(s)[0], t) - big * second(lambda s: points(s)[1], t)
-                   for t in times])
+    fz = np.array([-(c.piston.mass + small) * second(lambda s: points(s)[0], t)
+                   - big * second(lambda s: points(s)[1], t) for t in times])
     fn = np.array([-big * second(lambda s: points(s)[2], t) for t in times])
     sense = scene.sense
     scale = float(np.abs(fz).max())

@@ -776,7 +776,8 @@ def test_a_light_cylinder_beside_cancelling_heavy_ones_is_resolved():
     heavy = copy.deepcopy(_hard_type())
     heavy["piston"]["mass"], heavy["rod"]["mass"], heavy["rod"]["inertia"] = 1e3, 1e3, 3.0
     light_cylinder = {"throw": "30 deg", "bank": "0 deg", "axial_position": 0.1, **light}
-    data = {"engine": {"name": "mixed", "speed": "30000 rpm"}, "model": {"negligible": ZERO_ONLY, "effects": ALL_EFFECTS},
+    data = {"engine": {"name": "mixed", "speed": "30000 rpm"},
+            "model": {"negligible": ZERO_ONLY, "effects": ALL_EFFECTS},
             "sampling": {"max_order": 48},
             "cylinder": [{"throw": "0 deg", "bank": "-90 deg", "axial_position": 0.0, **heavy},
                          {"throw": "180 deg", "bank": "90 deg", "axial_position": 0.0, **heavy}, light_cylinder]}
@@ -798,7 +799,8 @@ def _boxer(x=0.0, unbalances=()):
     """Boxer twin of the hard type with both cylinders in the plane x: every
     force and transverse moment cancels exactly, only the roll stays free."""
     return {"engine": {"name": "boxer", "speed": "30000 rpm"},
-            "model": {"negligible": ZERO_ONLY, "effects": ALL_EFFECTS, "rod": "rigid"}, "sampling": {"max_order": 12}, **_hard_type(),
+            "model": {"negligible": ZERO_ONLY, "effects": ALL_EFFECTS, "rod": "rigid"}, "sampling": {"max_order": 12},
+            **_hard_type(),
             "cylinder": [{"throw": "0 deg", "bank": "-90 deg", "axial_position": x},
                          {"throw": "180 deg", "bank": "90 deg", "axial_position": x}],
             "crankshaft_unbalance": list(unbalances)}
@@ -1012,8 +1014,8 @@ def test_near_toggle_slider_crank_is_single_valued(fraction):
             return mp.asin((e - r * mp.sin(t)) / l)
 
         picks = list(range(0, 4096, 257)) + [4096]
-        for name, f, order, got in (("db", travel, 1, kin.db), ("ddb", travel, 2, kin.ddb),
-                                    ("drod", rod_angle, 1, kin.drod_angle), ("ddrod", rod_angle, 2, kin.ddrod_angle)):
+        for _name, f, order, got in (("db", travel, 1, kin.db), ("ddb", travel, 2, kin.ddb),
+                                     ("drod", rod_angle, 1, kin.drod_angle), ("ddrod", rod_angle, 2, kin.ddrod_angle)):
             want = np.array([float(mp.diff(f, mp.mpf(float(psi[i])), order)) for i in picks])
             _close(got[picks], want, 2 * kappa * EPS * np.abs(want).max())
 
@@ -1091,7 +1093,8 @@ def test_at_the_very_limit_the_sampling_warns_and_stays_finite():
     automatic sampling stops at its cap with an AccuracyWarning (not a silent
     loss of accuracy), and every output is still finite."""
     r, l, e, _ = _toggle(1 - 1e-12)
-    data = {"engine": {"name": "limit", "speed": "30000 rpm"}, "model": {"negligible": ZERO_ONLY, "effects": ALL_EFFECTS},
+    data = {"engine": {"name": "limit", "speed": "30000 rpm"},
+            "model": {"negligible": ZERO_ONLY, "effects": ALL_EFFECTS},
             "geometry": {"crank_radius": r, "rod_length": l, "pin_offset": e},
             "piston": {"mass": 0.5}, "rod": {"mass": 0.4, "cg_from_big_end": 0.3 * l, "inertia": 0.001},
             "cylinder": [{}]}

@@ -19,7 +19,8 @@ import harmbal as hb
 from harmbal import labelled
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENES = sorted((ROOT / "datasets" / "engines").glob("*.toml")) + sorted((ROOT / "datasets" / "examples").glob("*.toml"))
+SCENES = (sorted((ROOT / "datasets" / "engines").glob("*.toml"))
+          + sorted((ROOT / "datasets" / "examples").glob("*.toml")))
 
 
 @pytest.fixture

@@ -13,8 +13,8 @@ The meaning of /stars' ``*_free`` flags changed with the classes (issue 28): the
 flag, "not zero to round-off", is compared with ``*_class != 0``.
 """
 
-from pathlib import Path
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -45,7 +45,8 @@ RELATIVE_ERRORS = {"accuracy_reached", "gas_accuracy_reached"}
 
 def test_every_bundled_dataset_has_a_fixture():
     # Scenes with cylinder pressure ("-gas") are newer than the legacy code: they have no archive.
-    assert STEMS == sorted(p.stem for p in (ROOT / "datasets" / "engines").glob("*.toml") if not p.stem.endswith("-gas"))
+    engines = (ROOT / "datasets" / "engines").glob("*.toml")
+    assert STEMS == sorted(p.stem for p in engines if not p.stem.endswith("-gas"))
 
 
 def _scale(ds, name: str) -> float:

@@ -43,10 +43,10 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog, lsq_linear, minimize, minimize_scalar
 
 import harmbal as hb
-from harmbal.cli import main
-from harmbal.scene.requests import LeverDesignRequest
 from harmbal.balance.lever import compass_search, design_lever
+from harmbal.cli import main
 from harmbal.scene import SceneError
+from harmbal.scene.requests import LeverDesignRequest
 
 ROOT = Path(__file__).resolve().parent.parent
 LEVER = ROOT / "datasets" / "engines" / "lever-single.toml"

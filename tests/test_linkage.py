@@ -37,12 +37,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import harmbal as hb
-from harmbal.scene.elements import LeverBalancer, LinkageWarning, LinkBody, closure
 from harmbal.model.linkage import acceleration, four_bar, link_loads, weight_basis
 from harmbal.model.mechanism import reactions
-from harmbal.views.orders import order_spectrum
-from harmbal.scene import scene_from_text
 from harmbal.model.sampling import choose_samples
+from harmbal.scene import scene_from_text
+from harmbal.scene.elements import LeverBalancer, LinkageWarning, LinkBody, closure
+from harmbal.views.orders import order_spectrum
 
 DATASETS = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 LEVER_SINGLE = DATASETS / "lever-single.toml"
@@ -264,15 +264,16 @@ def test_transfer_functions_against_finite_differences(sense):
         m = four_bar(lever, theta, sense)
         L = length_scale(lever, sense)
         cg_r, cg_c = complex(0.4, 0.1) * lever.rocker_length, complex(-0.3, 0.5) * lever.coupler_length
-        series = {
-            "b": (lambda th: four_bar(lever, th, sense).b, m.db, m.ddb, L),
-            "c": (lambda th: four_bar(lever, th, sense).c, m.dc, m.ddc, L),
-            "rocker": (_unwrapped(lambda th: four_bar(lever, th, sense).rocker, theta), m.drocker, m.ddrocker, 1.0),
-            "coupler": (_unwrapped(lambda th: four_bar(lever, th, sense).coupler, theta), m.dcoupler, m.ddcoupler,
-                        1.0),
-            "rocker point": (lambda th: four_bar(lever, th, sense).point("rocker", cg_r)[0],
+        series = {  # the lambdas are called only within this iteration (B023: the loop variables are current)
+            "b": (lambda th: four_bar(lever, th, sense).b, m.db, m.ddb, L),  # noqa: B023
+            "c": (lambda th: four_bar(lever, th, sense).c, m.dc, m.ddc, L),  # noqa: B023
+            "rocker": (_unwrapped(lambda th: four_bar(lever, th, sense).rocker, theta),  # noqa: B023
+                       m.drocker, m.ddrocker, 1.0),
+            "coupler": (_unwrapped(lambda th: four_bar(lever, th, sense).coupler, theta),  # noqa: B023
+                        m.dcoupler, m.ddcoupler, 1.0),
+            "rocker point": (lambda th: four_bar(lever, th, sense).point("rocker", cg_r)[0],  # noqa: B023
                              *m.point("rocker", cg_r)[1:], L),
-            "coupler point": (lambda th: four_bar(lever, th, sense).point("coupler", cg_c)[0],
+            "coupler point": (lambda th: four_bar(lever, th, sense).point("coupler", cg_c)[0],  # noqa: B023
                               *m.point("coupler", cg_c)[1:], L),
         }
         for name, (fn, mu, nu, scale) in series.items():
@@ -295,12 +296,13 @@ def test_acceleration_along_an_accelerating_trajectory():
             def along(fn):
                 return lambda t: fn(theta0 + omega * t + alpha * t * t / 2)
 
+            # the lambdas are called only within this iteration (B023: the loop variables are current)
             for name, fn, mu, nu in (
-                    ("b", lambda th: four_bar(lever, th, sense).b, m.db, m.ddb),
-                    ("coupler cg", lambda th: four_bar(lever, th, sense).point("coupler", cg)[0],
+                    ("b", lambda th: four_bar(lever, th, sense).b, m.db, m.ddb),  # noqa: B023
+                    ("coupler cg", lambda th: four_bar(lever, th, sense).point("coupler", cg)[0],  # noqa: B023
                      *m.point("coupler", cg)[1:]),
-                    ("rocker angle", _unwrapped(lambda th: four_bar(lever, th, sense).rocker, theta0), m.drocker,
-                     m.ddrocker)):
+                    ("rocker angle", _unwrapped(lambda th: four_bar(lever, th, sense).rocker, theta0),  # noqa: B023
+                     m.drocker, m.ddrocker)):
                 # the trajectory's time differences, evaluated for every θ₀ at once
                 vel, acc = central(along(fn), np.zeros_like(theta0), tau)
                 expected = acceleration(mu, nu, omega, alpha)
@@ -749,7 +751,8 @@ def test_frame_reactions_equal_simulate_for_every_rod_model(rod):
 
 def test_pivot_on_the_crank_axis():
     # A = D: |A→C| = r at every angle, so the loop closes (|a − b| < r < a + b; here
-    # 0 < 20 mm < 60 mm, γ = 38.9° throughout) and the scene is accepted. The triangle A-B-C then turns rigidly with the crank: both links' CGs are
+    # 0 < 20 mm < 60 mm, γ = 38.9° throughout) and the scene is accepted. The triangle
+    # A-B-C then turns rigidly with the crank: both links' CGs are
     # fixed multiples of e^{iθ}, so the links add the rotating force Σ m·G (unit speed, w-plane)
     # and nothing about the crank axis.
     data = lever_data()

@@ -5,8 +5,8 @@ import subprocess
 import sys
 
 import harmbal
-from harmbal.scene import Cylinder
 from harmbal.model.evaluate import PLACEMENT_FIELDS, TYPE_FIELDS
+from harmbal.scene import Cylinder
 
 
 def test_cylinder_type_and_placement_cover_every_field():
@@ -26,7 +26,8 @@ def test_every_public_name_resolves_and_is_documented():
 
 
 def test_import_stays_light():
-    code = ("import sys, harmbal; heavy = {'xarray', 'scipy', 'pint', 'matplotlib', 'dask', 'pyfftw', 'mpmath', 'h5netcdf'}; "
+    code = ("import sys, harmbal; "
+            "heavy = {'xarray', 'scipy', 'pint', 'matplotlib', 'dask', 'pyfftw', 'mpmath', 'h5netcdf'}; "
             "print(sorted(heavy & set(sys.modules)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
@@ -87,7 +88,8 @@ def _resolve(name: str, modules: set) -> str:
 
 def test_imports_only_go_down_the_pipeline():
     graph = _imports()
-    assert "scene.__init__" in graph["analysis"] and "orders.spectrum" in graph["views.evaluation"]  # the parser sees them
+    # the parser sees them
+    assert "scene.__init__" in graph["analysis"] and "orders.spectrum" in graph["views.evaluation"]
     upward = [(module, target) for module, targets in graph.items() for target in targets
               if STAGES[target.split(".")[0]] > STAGES[module.split(".")[0]]]
     assert not upward, upward

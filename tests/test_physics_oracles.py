@@ -61,7 +61,7 @@ def piston_harmonics(lam: str, kmax: int = 12) -> tuple[float, ...]:
         nodes = mp.linspace(0, 2 * mp.pi, 5)
         out = []
         for k in range(kmax + 1):
-            integral = mp.quad(lambda t: minus_acc(t) * mp.cos(k * t), nodes)
+            integral = mp.quad(lambda t: minus_acc(t) * mp.cos(k * t), nodes)  # noqa: B023 (integrated at once)
             out.append(float(integral / (2 * mp.pi if k == 0 else mp.pi)))
         return tuple(out)
 
@@ -120,7 +120,9 @@ def test_own_acceleration_formula():
     """The hand-derived x'' used by the quadrature oracle agrees with mp.diff of x."""
     with mp.workdps(30):
         r, l = mp.mpf("0.06"), mp.mpf("0.215")
-        x = lambda t: r * mp.cos(t) + mp.sqrt(l * l - (r * mp.sin(t)) ** 2)
+        def x(t):
+            return r * mp.cos(t) + mp.sqrt(l * l - (r * mp.sin(t)) ** 2)
+
         for t in (mp.mpf("0.3"), mp.mpf("1.7"), mp.mpf("4.1")):
             u = mp.sqrt(l * l - (r * mp.sin(t)) ** 2)
             mine = -r * mp.cos(t) - r**2 * mp.cos(2 * t) / u - r**4 * (mp.sin(t) * mp.cos(t)) ** 2 / u**3
@@ -182,10 +184,13 @@ def test_offset_piston_harmonics(lam, e_over_r):
     m, omega = 1.1, 250.0
     kmax = 8
     with mp.workdps(25):
-        x = lambda t: r * mp.cos(t) + mp.sqrt(l * l - (e - r * mp.sin(t)) ** 2)
+        def x(t):
+            return r * mp.cos(t) + mp.sqrt(l * l - (e - r * mp.sin(t)) ** 2)
+
         nodes = mp.linspace(0, 2 * mp.pi, 5)
-        X = [complex(mp.quad(lambda t: x(t) * mp.cos(k * t), nodes) / mp.pi
-                     - 1j * mp.quad(lambda t: x(t) * mp.sin(k * t), nodes) / mp.pi) for k in range(kmax + 1)]
+        # each integrand is integrated at once, with its own k (B023)
+        X = [complex(mp.quad(lambda t: x(t) * mp.cos(k * t), nodes) / mp.pi  # noqa: B023
+                     - 1j * mp.quad(lambda t: x(t) * mp.sin(k * t), nodes) / mp.pi) for k in range(kmax + 1)]  # noqa: B023
     expected = m * omega**2 * np.arange(kmax + 1) ** 2 * np.array(X)
     for rotation in ("clockwise", "counterclockwise"):
         scene = _scene([_cyl(r=r, l=l, mp_=m, rod_m=1e-3, rod_a=0.0, e=e)], speed=omega, rotation=rotation,

@@ -15,7 +15,15 @@ from harmbal.cli import main
 
 pytest.importorskip("matplotlib")
 
-from harmbal.reporting.plots import (crank_star, default_orders, phasor_chain, phasor_diagram, save_figure, select_speed, stars_figure)
+from harmbal.reporting.plots import (
+    crank_star,
+    default_orders,
+    phasor_chain,
+    phasor_diagram,
+    save_figure,
+    select_speed,
+    stars_figure,
+)
 
 ENGINES = Path(__file__).parent.parent / "datasets" / "engines"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -322,9 +322,9 @@ def test_provenance_says_how_to_reproduce_with_what_exists(balanced_tree, balanc
 def test_archives_store_version_revision_and_command(tmp_path, capsys):
     """Oracle: the root attributes as netCDF4 (not harmbal) reads them, against the command that wrote them."""
     netCDF4 = pytest.importorskip("netCDF4")
-    from harmbal._version import source_revision
-
     import shlex
+
+    from harmbal._version import source_revision
 
     scene = str(ENGINES / "v-twin-90.toml")
     commands = {"run": ["run", scene, "-o", str(tmp_path / "run.nc")],

@@ -62,7 +62,8 @@ def browser():
         instance.close()
 
 
-@pytest.fixture(scope="module", params=["inline-3-balanced", "lever-single", "tractor-3cyl-gas", "test-single-loads-gas"])
+@pytest.fixture(scope="module",
+                params=["inline-3-balanced", "lever-single", "tractor-3cyl-gas", "test-single-loads-gas"])
 def report_file(request, tmp_path_factory):
     """A report with balancers and verification, one with a lever balancer, one with gas and a flywheel, one
     with bearing and interface loads."""

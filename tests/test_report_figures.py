@@ -10,7 +10,15 @@ import harmbal as hb
 
 pytest.importorskip("matplotlib")
 
-from harmbal.reporting.plots import (OKABE_ITO, locus_figure, lever_figure, order_spectrum_figure, phasing_figure, save_figure, time_traces_figure)
+from harmbal.reporting.plots import (
+    OKABE_ITO,
+    lever_figure,
+    locus_figure,
+    order_spectrum_figure,
+    phasing_figure,
+    save_figure,
+    time_traces_figure,
+)
 
 ENGINES = Path(__file__).parent.parent / "datasets" / "engines"
 UNIT = re.compile(r"\[[^\]]+\]")

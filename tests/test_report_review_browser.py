@@ -10,10 +10,10 @@ the provenance box wraps inside it instead of running out of it.
 from pathlib import Path
 
 import pytest
+from test_report_browser import CHROMIUM_FLAGS, FIRST_SCREEN, _chromium
 
 import harmbal as hb
 from harmbal.scene import scene_from_text
-from test_report_browser import CHROMIUM_FLAGS, FIRST_SCREEN, _chromium
 
 ENGINES = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 

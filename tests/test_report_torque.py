@@ -12,12 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_report import _parse, _value
 
 import harmbal as hb
-from harmbal.reporting.plots import (pressure_figure, speed_fluctuation_figure, torque_figure,
-                                     torque_spectrum_figure)
-
-from test_report import _parse, _value
+from harmbal.reporting.plots import pressure_figure, speed_fluctuation_figure, torque_figure, torque_spectrum_figure
 
 ENGINES = Path(__file__).resolve().parent.parent / "datasets" / "engines"
 

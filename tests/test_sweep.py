@@ -39,8 +39,8 @@ def test_every_speed_of_a_sweep_equals_a_run_at_that_speed_alone(base_scene):
         rpm = float(tree["orders"]["rpm"].values[i])
         alone = dict(base_scene, engine=dict(base_scene["engine"], speed=f"{rpm!r} rpm"))
         single = hb.analyse(hb.load_scene(alone))
-        for group, names in (("orders", ("force", "moment", "force_rotating")), ("stars", ("force_cylinder", "moment_cylinder")),
-                             ("time", ("force", "moment"))):
+        for group, names in (("orders", ("force", "moment", "force_rotating")),
+                             ("stars", ("force_cylinder", "moment_cylinder")), ("time", ("force", "moment"))):
             for name in names:
                 got = tree[group][name].isel(speed=i).values
                 want = single[group][name].values

@@ -111,8 +111,8 @@ def test_threads_and_a_distributed_local_cluster_give_bit_identical_results():
     lazy = hb.monte_carlo(SCENE, TOLERANCES, 2000, seed=3, orders=[1, 2], chunks=400)
     with dask.config.set(scheduler="threads"):
         threads = lazy.compute()
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
-            distributed.Client(cluster):
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster):
         again = hb.monte_carlo(SCENE, TOLERANCES, 2000, seed=3, orders=[1, 2], chunks=400)
         on_cluster = again.compute()
     _assert_same(on_cluster, threads)

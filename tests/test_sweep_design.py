@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_close_to_scale
 
 import harmbal as hb
-from conftest import assert_close_to_scale
 from harmbal.scene import SceneError
 
 ENGINES = Path(__file__).resolve().parent.parent / "datasets" / "engines"

@@ -90,6 +90,8 @@ def unbalance_range(blank: Blank, solve: tuple[int, str] | None = None,
     from scipy.optimize import minimize_scalar
 
     solve = solve or blank.solve
+    if solve is None:
+        raise ValueError("say which dimension to solve: solve = (part index, name)")
     low, high = _range(blank, solve, _bounds(blank, solve, bounds))
     grid = np.linspace(low, high, SIZING_SAMPLES)
     values = np.array([blank.with_dimension(p, solve).unbalance for p in grid])

@@ -34,26 +34,51 @@ import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from ..scene.elements import Shaft
 from ..model.balancers import shaft_loads
-from ..orders.phasors import order_phasors
-from ..scene.requests import (COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, signed_ratio)
+from ..model.evaluate import evaluate, moment_about
+from ..orders.phasors import OrderPhasors, order_phasors
 from ..orders.spectrum import ZERO, ZERO_RTOL, classify, zero_below_round_off
 from ..scene import Scene, SceneError, scene_from_text
+from ..scene.elements import Shaft
+from ..scene.requests import COMPONENTS, PEAK_SAMPLES, Candidate, DesignRequest, LeverDesignRequest, signed_ratio
+from ..scene.writer import (
+    angle_text,
+    blank_table,
+    length_text,
+    quantity_text,
+    signed_angle_text,
+    toml_tables,
+    with_engine,
+    without_tables,
+)
 from .counterweights import SizedBlank, size_blank
-from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
-from ..scene.writer import (angle_text, blank_table, length_text, quantity_text, signed_angle_text, toml_tables,
-                            with_engine, without_tables)
-from ..model.evaluate import moment_about, evaluate
-from .least_squares import (RANK_RTOL, component_phasors, design_targets, element_phasors, element_shafts,
-                            prioritised_least_squares, response_matrix, target_rows)
+from .least_squares import (
+    RANK_RTOL,
+    component_phasors,
+    design_targets,
+    element_phasors,
+    element_shafts,
+    prioritised_least_squares,
+    response_matrix,
+    target_rows,
+)
 from .sanity import check_conditioning, size_error
-from .verify import (CHECKED_ORDER, checked_orders, describe_component, engine_scales, made_worse_check,
-                     residual_spectra, spectrum_components, verify_samples, worsened_messages)
-
+from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
+from .verify import (
+    CHECKED_ORDER,
+    checked_orders,
+    describe_component,
+    engine_scales,
+    made_worse_check,
+    residual_spectra,
+    spectrum_components,
+    verify_samples,
+    worsened_messages,
+)
 
 #: A Lanchester pair's two unbalances are written as one pair (one size, the
 #: mean) if they differ by at most this share: round-off of a standing vector's
@@ -139,6 +164,7 @@ def _factor_counterweights(scene: Scene, candidate: Candidate, kmax: int, ref: n
     crankshaft's own CG) plus 2f × those of the reciprocating masses."""
     rot, rec = (order_phasors(evaluate(s)) for s in factor_scenes(scene))
     f = candidate.balance_factor
+    assert f is not None  # only candidates sized by a balance factor come here
     target = component_phasors(rot.force + 2 * f * rec.force, rot.moment + 2 * f * rec.moment, scene.sense)
     a, rows = factor_system(candidate, kmax, scene.sense, ref, weights)
     return np.linalg.lstsq(a, -target_rows(target, rows, weights), rcond=None)[0]
@@ -237,6 +263,7 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
 
         return design_lever(scene, request, name=name, description=description)
     check_request(scene, request)
+    assert request is not None  # check_request refuses None
     plan, solution = _planned_and_solved(scene, request)
     values, ok, predicted = solution.values, solution.ok, solution.predicted
     w2 = scene.speeds[0] ** 2
@@ -341,7 +368,7 @@ class _Plan:
     ``negligible`` unbalance [kg m] below which an element is not written, and
     ``frame`` = (max_order, sense, reference point)."""
 
-    engine: object
+    engine: OrderPhasors
     weights: dict[str, float]
     zero: tuple[float, float]
     zero_scales: dict[str, float]
@@ -500,12 +527,12 @@ def _made_worse(plan: _Plan, designed: Scene, unit) -> dict:
     judged by the engine's load scales (without any balancer element, the
     scales :func:`harmbal.verify` judges by), with ``force_scale`` [N] and
     ``moment_scale`` [N m]."""
-    after = order_phasors(unit)
+    designed_phasors = order_phasors(unit)
     w2 = designed.speeds[0] ** 2
     scales = (w2 * plan.zero[0], w2 * plan.zero[1])
     names = [n for n, _ in COMPONENTS]
     before, after = (w2 * np.array([component_phasors(p.force, p.moment, designed.sense)[n] for n in names])[:, 1:].T
-                     for p in (plan.engine, after))  # (order 1 … max_order, component)
+                     for p in (plan.engine, designed_phasors))  # (order 1 … max_order, component)
     targeted = np.array([[(k, n) in plan.targets for n in names]
                          for k in checked_orders(designed.sampling.max_order)])
     return {**made_worse_check(before, after, targeted, scales, len(designed.cylinders), designed.model.negligible),
@@ -577,9 +604,9 @@ def _height_hints(request: DesignRequest, values, predicted, ok, frame, w2: floa
             continue
         zero = np.zeros((3, frame[0] + 1), dtype=complex)
 
-        def roll(heights):
-            pair = dataclasses.replace(c, heights=heights)
-            return _with_elements(zero, zero, [pair], {c.label: values[c.label]}, *frame)[1][0, k]
+        def roll(heights):  # called only within this iteration, so the loop variables it reads are current
+            pair = dataclasses.replace(c, heights=heights)  # noqa: B023
+            return _with_elements(zero, zero, [pair], {c.label: values[c.label]}, *frame)[1][0, k]  # noqa: B023
 
         plus, minus = c.heights
         slope = roll((plus + 0.5, minus - 0.5)) - roll(c.heights)  # per metre of height difference
@@ -588,8 +615,8 @@ def _height_hints(request: DesignRequest, values, predicted, ok, frame, w2: floa
         left = predicted["roll"][k]
         change = -float((np.conj(slope) * left).real) / abs(slope) ** 2
         rest = abs(left + change * slope)
-        hints.append(f"{c.label}: with z₊ − z₋ = {(plus - minus + change) * 1e3:.6g} mm (now {(plus - minus) * 1e3:.6g} "
-                     f"mm) the pair would also cancel the order {k} roll moment"
+        hints.append(f"{c.label}: with z₊ − z₋ = {(plus - minus + change) * 1e3:.6g} mm "
+                     f"(now {(plus - minus) * 1e3:.6g} mm) the pair would also cancel the order {k} roll moment"
                      + (f" down to {rest * w2:.4g} N m" if rest > tolerance else ""))
     return hints
 
@@ -671,6 +698,7 @@ def _peak_design(scene, request, free, unknowns, z0, a, b, ok, ref, fixed) -> np
 
 def _blank_note(label: str, sized: SizedBlank) -> str:
     """The sized dimension in words, for the drawing office."""
+    assert sized.blank.solve is not None  # a sized blank names its sized dimension
     index, name = sized.blank.solve
     part = sized.blank.parts[index]
     value = f"{math.degrees(sized.value):.6g}°" if name == "half_angle" else (
@@ -755,7 +783,7 @@ def _verify_toml(scene: Scene, request: DesignRequest, predicted) -> dict:
     w2 = scene.speeds[0] ** 2
     rows = []
     for k in request.orders:
-        row = {"order": k}
+        row: dict[str, Any] = {"order": k}
         for name, group in COMPONENTS:
             if group in request.cancel:
                 p = predicted[name][k] * w2
@@ -781,14 +809,14 @@ def _scene_text(scene: Scene, request: DesignRequest, values, predicted, engine:
     for key, entries in tables.items():
         expected[key] = list(expected.get(key, [])) + entries
     expected["verify"] = addition["verify"]
-    engine = {k: v for k, v in engine.items() if v is not None}
-    expected["engine"] = {**expected["engine"], **engine}
+    given = {k: v for k, v in engine.items() if v is not None}
+    expected["engine"] = {**expected["engine"], **given}
     header = [f"# Balancer elements designed by harmbal {__version__} from {scene.source}",
               f"# (orders {', '.join(map(str, request.orders))}; cancel {', '.join(request.cancel)}; "
               f"objective {request.objective}):"] + [f"#   {n}" for n in notes]
     top = [f"# {expected['engine'].get('name', scene.name)}: {scene.source} with balancer elements designed by "
            f"'harmbal design' (see the block before [verify]).", "#"]
-    body = with_engine(without_tables(scene.source_text, {"design", "verify"}), engine)
+    body = with_engine(without_tables(scene.source_text, {"design", "verify"}), given)
     text = "\n".join(top) + "\n" + body + "\n" + "\n".join(header) + "\n" + toml_tables(addition)
     try:
         if tomllib.loads(text) == expected:

@@ -38,13 +38,13 @@ from typing import Callable
 
 import numpy as np
 
-from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
-from ..scene.requests import LEVER_OBJECTIVES, LEVER_SIGNALS, PEAK_SAMPLES, LeverDesignRequest
-from ..scene.elements import LeverBalancer, LinkBody
+from ..model import evaluate as model
 from ..model.linkage import four_bar, lever_loads, to_engine, weight_basis
 from ..orders.spectrum import phasors, rotating_split
 from ..scene import Scene
-from ..model import evaluate as model
+from ..scene.elements import LeverBalancer, LinkBody
+from ..scene.requests import LEVER_OBJECTIVES, LEVER_SIGNALS, PEAK_SAMPLES, LeverDesignRequest
+from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
 
 #: Orders reported in the per-order breakdown.
 BREAKDOWN_ORDERS = 4
@@ -203,7 +203,8 @@ def _envelope(request: LeverDesignRequest, length: float) -> dict[str, tuple[flo
 def _constraints(bounds: dict[str, tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
     """The bounds as G·p ≤ h in p = (m, m·x_G, m·y_G)."""
     low_mass, high_mass = bounds["mass"]
-    rows, rhs = [[-1.0, 0.0, 0.0]], [-low_mass]
+    rows: list[list[float] | np.ndarray] = [[-1.0, 0.0, 0.0]]
+    rhs = [-low_mass]
     if math.isfinite(high_mass):
         rows.append([1.0, 0.0, 0.0])
         rhs.append(high_mass)
@@ -456,10 +457,11 @@ def design_lever(scene: Scene, request: LeverDesignRequest | None = None, *, met
 
 def _lever_request(scene: Scene, request: LeverDesignRequest | None) -> LeverDesignRequest:
     """The request :func:`design_lever` solves (default the scene's ``[design]``), refused if it is not one."""
-    request = request or scene.design
-    if not isinstance(request, LeverDesignRequest):
+    chosen = request or scene.design
+    if not isinstance(chosen, LeverDesignRequest):
         raise DesignError(f"{scene.source}: no [design.lever] table: say which lever balancer's weight to "
                                "optimise (docs/lever.md)")
+    request = chosen
     if request.objective not in LEVER_OBJECTIVES or any(s not in LEVER_SIGNALS for s in request.signals):
         raise DesignError(f"objective must be one of {LEVER_OBJECTIVES} and signals of {LEVER_SIGNALS}")
     if request.objective == "orders" and max(request.orders) > scene.sampling.max_order:

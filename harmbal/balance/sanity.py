@@ -115,7 +115,8 @@ def conditioning_error(source: str, free, unknown_owner: list[int], targets, sta
     names = ", ".join(f"design.{c.kind} {c.label!r}" for c in parts)
     times = f"{1 / leverage:.3g}" if leverage > 0 and math.isfinite(1 / leverage) else "infinitely many"
     return DesignError(
-        f"{source}: the request is ill-conditioned: {names} {'acts' if len(parts) == 1 else 'act'} on the order {', '.join(map(str, orders))} {what} "
+        f"{source}: the request is ill-conditioned: {names} {'acts' if len(parts) == 1 else 'act'} "
+        f"on the order {', '.join(map(str, orders))} {what} "
         f"only weakly (leverage {leverage:.3g}, refused below {LEVERAGE_MIN:g}): cancelling it would take elements "
         f"{times} times larger than what they cancel; {'; or '.join(advice(c, stage.group) for c in parts)} "
         "(docs/design.md, \"Ill-conditioned requests\")")

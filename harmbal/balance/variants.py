@@ -42,8 +42,16 @@ from ..orders.spectrum import BALANCED_RTOL
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, Candidate, DesignRequest, LeverDesignRequest
 from .design import check_request, factor_scenes, factor_system
-from .least_squares import (RANK_RTOL, component_phasors, design_targets, element_phasors, prioritised_least_squares,
-                            priority_stages, response_matrix, target_rows)
+from .least_squares import (
+    RANK_RTOL,
+    component_phasors,
+    design_targets,
+    element_phasors,
+    prioritised_least_squares,
+    priority_stages,
+    response_matrix,
+    target_rows,
+)
 from .sanity import ELEMENT_LIMIT, check_conditioning, gross_force, size_error
 from .solvers import DesignError
 
@@ -216,6 +224,7 @@ def _scale_bounds(bounds: _PeakBounds, slots: np.ndarray) -> tuple[np.ndarray, .
     if bounds.planar is None:
         force, moment = _scales(bounds, slots)
         return force, force, moment, moment
+    assert bounds.probe is not None and bounds.unit_peak is not None  # made together with planar
     force_low, moment_low = _peaks(bounds, slots, bounds.probe)
     peak = (np.abs(slots) @ bounds.unit_peak.reshape(len(slots[0]), -1)).reshape(len(slots), -1, 2)
     force_high = slots @ bounds.unbalance_force + bounds.constant_force + peak[..., 0].sum(axis=1)
@@ -235,6 +244,7 @@ def _factor_map(scene: Scene, candidate: Candidate, weights: dict[str, float]) -
     sense, kmax = scene.sense, scene.sampling.max_order
     rot, rec = (linear_phasors(s) for s in factor_scenes(scene))
     f = candidate.balance_factor
+    assert f is not None  # only candidates sized by a balance factor come here
     force = _extended(rot.force + 2 * f * rec.force, rot.constant_force + 2 * f * rec.constant_force)
     moment = _extended(rot.moment + 2 * f * rec.moment, rot.constant_moment + 2 * f * rec.constant_moment)
     a, rows = factor_system(candidate, kmax, sense, np.asarray(scene.reference_point, dtype=float), weights)
@@ -286,9 +296,12 @@ def design_basis(scene: Scene, basis: LinearPhasors, request: DesignRequest | No
         masses: the ``peak`` objective, lever designs, lever balancers, gas,
         speed fluctuation, a balance-factor rule with dependent rows.
     """
-    request = request or scene.design
-    _refuse_nonlinear(scene, request)
-    check_request(scene, request)
+    chosen = request or scene.design
+    _refuse_nonlinear(scene, chosen)
+    assert not isinstance(chosen, LeverDesignRequest)  # refused just above
+    check_request(scene, chosen)
+    assert chosen is not None  # check_request refuses None
+    request = chosen
     names, _ = slot_values(scene)
     if names != basis.slots:
         raise ValueError(f"{scene.source}: the basis has other slots than the scene: {basis.slots} != {names}")
@@ -350,7 +363,7 @@ def _columns(candidates) -> dict[str, np.ndarray]:
 
 
 def _free_map(request: DesignRequest, targets, b: np.ndarray, free: np.ndarray, weights: dict[str, float],
-              frame) -> tuple[np.ndarray, _Solver]:
+              frame: tuple[int, int, np.ndarray]) -> tuple[np.ndarray, _Solver]:
     """Design's stages for the free candidates, solved once with the rows
     ``b`` (row, slot + 1) of every slot as right-hand sides, weighted by the
     scene's scales: the map (slot + 1, real free unknown), and what a direct
@@ -361,10 +374,12 @@ def _free_map(request: DesignRequest, targets, b: np.ndarray, free: np.ndarray, 
     w = np.where(moment_rows, weights["moment_co"], weights["force_co"])[:, None]
     stages, _ = priority_stages(w * a, targets)
     group_weight = {"force": weights["force_co"], "moment": weights["moment_co"], "roll": weights["roll"]}
+    force_norm, moment_norm = (float(np.linalg.norm(a[rows], 2)) if a[rows].size else 0.0
+                               for rows in (~moment_rows, moment_rows))
     solver = _Solver(
         targets=targets, free=free, a=a, b=b, moment_rows=moment_rows,
         stages=tuple((s.group, s.singular / group_weight[s.group], s.rank) for s in stages),
-        norms=tuple(float(np.linalg.norm(a[rows], 2)) if a[rows].size else 0.0 for rows in (~moment_rows, moment_rows)))
+        norms=(force_norm, moment_norm))
     return prioritised_least_squares(w * a, w * b, targets).T, solver
 
 

@@ -34,8 +34,16 @@ import numpy as np
 from ..labelled import Speeds, dataset
 from ..model.evaluate import evaluate
 from ..model.sampling import choose_samples
-from ..orders.spectrum import (CLASS_ATTRS, FREE, ZERO_RTOL, classify, negligible_level, phasors,
-                               transverse_split, zero_below_round_off)
+from ..orders.spectrum import (
+    CLASS_ATTRS,
+    FREE,
+    ZERO_RTOL,
+    classify,
+    negligible_level,
+    phasors,
+    transverse_split,
+    zero_below_round_off,
+)
 from ..scene import Scene
 from ..scene.requests import COMPONENTS, PEAK_SAMPLES, VerifyRequest
 from ..views.time import body_aliasing

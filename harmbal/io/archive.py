@@ -48,11 +48,27 @@ from pathlib import Path
 
 import numpy as np
 
+from ..labelled import (
+    CF_CONVENTIONS,
+    SPEED_INDEPENDENT,
+    SPEED_SCALING,
+    Speeds,
+    speed_independent_values,
+    unit_speed_values,
+    with_speed_indexes,
+)
 from .files import atomic_path, restore_interrupted
-from .integrity import (ArchiveError, CHECKSUM_ATTR, TRAILER_SIZE, append_file_checksum, check_file_checksum,
-                        checksum_attribute, scan_netcdf, scan_zarr, verify)
-from ..labelled import (CF_CONVENTIONS, SPEED_INDEPENDENT, SPEED_SCALING, Speeds, speed_independent_values,
-                        unit_speed_values, with_speed_indexes)
+from .integrity import (
+    CHECKSUM_ATTR,
+    TRAILER_SIZE,
+    ArchiveError,
+    append_file_checksum,
+    check_file_checksum,
+    checksum_attribute,
+    scan_netcdf,
+    scan_zarr,
+    verify,
+)
 
 PART = "part"
 _ENCODING_ATTR = "complex_encoding"
@@ -340,7 +356,8 @@ def save_and_compute(tree, path: str | os.PathLike, *collections, per_speed_limi
         if zarr:
             # Zarr format 2: its fixed-length strings and consolidated metadata are specified (format 3: not yet).
             # Every chunk is written, even one of fill values, so that a missing chunk file shows (integrity).
-            write = encoded.to_zarr(tmp, mode="w", compute=not lazy, consolidated=True, zarr_format=2,
+            # DataTree.to_zarr's overloads take compute only as a literal True or False, not a bool known at run time.
+            write = encoded.to_zarr(tmp, mode="w", compute=not lazy, consolidated=True, zarr_format=2,  # type: ignore[call-overload]
                                     encoding=encoding, write_empty_chunks=True)
             computed = _compute(write, collections) if lazy else ()
         else:

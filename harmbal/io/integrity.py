@@ -124,12 +124,16 @@ def verify(nodes: dict, source, required: bool) -> bool:
     stored = _parse(raw, source)
     if set(stored) != set(nodes):
         missing, extra = sorted(set(stored) - set(nodes)), sorted(set(nodes) - set(stored))
-        raise ArchiveError(f"{source}: groups changed since written" + (f"; missing: {', '.join(missing)}" if missing
-                                                                        else "") + (f"; not written by harmbal: "
-                                                                                    f"{', '.join(extra)}" if extra else ""))
+        raise ArchiveError(f"{source}: groups changed since written" + _missing_and_extra(missing, extra))
     for path, ds in nodes.items():
         _verify_group(path, ds, stored[path], source)
     return True
+
+
+def _missing_and_extra(missing: list[str], extra: list[str]) -> str:
+    """The "; missing: …; not written by harmbal: …" tail of a changed-contents message."""
+    return ((f"; missing: {', '.join(missing)}" if missing else "")
+            + (f"; not written by harmbal: {', '.join(extra)}" if extra else ""))
 
 
 def _parse(raw, source) -> dict:
@@ -155,9 +159,7 @@ def _verify_group(path: str, ds, stored: dict, source) -> None:
     variables = stored["variables"]
     if set(variables) != set(ds.variables):
         missing, extra = sorted(set(variables) - set(ds.variables)), sorted(set(ds.variables) - set(variables))
-        raise ArchiveError(f"{where}: variables changed since written" + (f"; missing: {', '.join(missing)}" if missing
-                                                                          else "") + (f"; not written by harmbal: "
-                                                                                      f"{', '.join(extra)}" if extra else ""))
+        raise ArchiveError(f"{where}: variables changed since written" + _missing_and_extra(missing, extra))
     digests = _group_digests(path, ds, hash_data=lambda name, var: variables[name][1] is not None)
     if digests["attrs"] != stored["attrs"]:
         raise ArchiveError(f"{where}: attributes changed since written (checksum mismatch)")
@@ -226,7 +228,8 @@ def _data_digest(values) -> str:
         values = np.where(np.isnan(values), np.nan, values)  # one NaN, whatever payload a reader gives it
     if values.dtype.kind in "Mm":
         values = values.astype(f"{values.dtype.kind}8[ns]").view("i8")
-    h.update(np.ascontiguousarray(values).view(np.uint8).ravel() if values.size else b"")
+    # numpy types ndarray as a Buffer only for Python >= 3.12 (PEP 688); it has the buffer protocol anyway.
+    h.update(np.ascontiguousarray(values).view(np.uint8).ravel() if values.size else b"")  # type: ignore[arg-type]
     return h.hexdigest()[:32]
 
 
@@ -318,7 +321,7 @@ def scan_netcdf(path) -> bool:
 
     limit = _MAX_RATIO * os.path.getsize(path) + (1 << 20)
     with h5py.File(path, "r") as f:
-        found = []
+        found: list = []
         _scan_group(f, "", path, limit, found, depth=0)
     return any(found)
 

@@ -189,9 +189,9 @@ def crank_train(scene: Scene, theta: np.ndarray, gas_force: np.ndarray | None) -
     couple = np.zeros(theta.shape, dtype=complex)
     for s in scene.shafts:
         if s.on_crank:
-            for u in s.unbalances:
-                extra.append(-u.unbalance * np.exp(1j * (theta + u.angle)))
-                where.append(u.x)
+            for su in s.unbalances:
+                extra.append(-su.unbalance * np.exp(1j * (theta + su.angle)))
+                where.append(su.x)
             couple += s.couple * np.exp(1j * theta)
     for lever in scene.levers:
         extra.append(rx.forces[f"{lever.label}: C"])

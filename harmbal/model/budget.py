@@ -31,7 +31,7 @@ import os
 import re
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -223,10 +223,11 @@ def available_memory() -> float | None:
     except (ImportError, OSError, ValueError):
         pass
     for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
-        values = [_read_value(limit), _read_value(usage)]
-        if None not in values and values[0] < 2**60:
-            found.append(0.8 * (values[0] - values[1]))
+                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                          "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        high, used_now = _read_value(limit), _read_value(usage)
+        if high is not None and used_now is not None and high < 2**60:
+            found.append(0.8 * (high - used_now))
     return max(min(found), 0.0) if found else None
 
 
@@ -313,7 +314,8 @@ def _trace_term(size: _Sizes) -> Term | None:
         return None
     return Term("cylinder", f"{size.cylinders} cylinders", f"{size.traces} distinct [gas.combustion] traces",
                 _TRACE_BYTES * size.traces, _TRACE_SECONDS * size.traces,
-                "give the cylinders one [gas.combustion] table (one trace is solved per distinct table and crank train)")
+                "give the cylinders one [gas.combustion] table "
+                "(one trace is solved per distinct table and crank train)")
 
 
 def _grid_term(size: _Sizes, samples: int, per_row: float, what: str) -> Term:
@@ -417,7 +419,9 @@ def estimate(scene: Scene, command: str = "analyse", *, output: bool = False, an
         raise ValueError(f"command must be one of {', '.join(COMMANDS)}: {command!r}")
     doing = {"analyse": "the analysis", "evaluate": "the evaluation", "sweep": "the sweep"}.get(
         command, f"harmbal {command}")
+    terms: Sequence[Term | None]
     if command == "evaluate":
+        assert samples is not None, "estimate(..., 'evaluate') needs samples"
         rows = len(scene.cylinders) + len(scene.shafts) + len(scene.levers)
         size = _Sizes(len(scene.cylinders), rows - len(scene.cylinders), len(scene.speeds), samples, 1, False)
         terms = [_grid_term(size, samples, _PER_CYLINDER_SAMPLE, "the exact model")]

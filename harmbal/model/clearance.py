@@ -171,7 +171,7 @@ def signed_distance(p: np.ndarray, rp: float, q: np.ndarray, rq: float) -> np.nd
         high += [anchor + rel.max(axis=0), other_proj.max(axis=-2)]
     # Gaps along every axis: projections of p and of q taken in pairs (own extent, the other's).
     gaps = [np.maximum(low[i + 1] - high[i], low[i] - high[i + 1]).max(axis=-1) for i in range(0, len(low), 2)]
-    gap = np.maximum.reduce(gaps)
+    gap: np.ndarray = np.maximum.reduce(gaps)
     return np.where(gap > 0, euclid, gap) - rp - rq
 
 

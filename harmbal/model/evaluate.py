@@ -20,13 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene import Model, Scene
 from . import loads
 from .balancers import shaft_loads, shaft_phasors, unbalance_phasors
 from .budget import check_budget
 from .kinematics import SliderCrank, crank_pin, slider_crank
 from .linkage import lever_loads
 from .sampling import body_decay_rates, choose_samples, inertia_samples, interpolate
-from ..scene import Model, Scene
 
 #: A cylinder's phase within this many rounding units (relative, of its phase in grid steps) of a grid
 #: point is on the grid (a roll of its type's samples). Only round-off may be rolled away: a phase off
@@ -190,6 +190,7 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray, tangential: bool = Fa
 
     planar: list[loads.PlanarLoad] = []
     if "reciprocating" in effects:
+        assert kin is not None  # made for these effects
         planar.append(loads.reciprocating(
             kin, _column([c.piston.mass for c in cylinders]), _column([c.piston.cg_lateral for c in cylinders]),
             small_end))
@@ -201,6 +202,7 @@ def planar_loads(model: Model, cylinders, psi: np.ndarray, tangential: bool = Fa
     if "rod_inertia" in effects and model.rod != "two_point":
         lateral = _column([c.rod.cg_lateral for c in cylinders])
         off_axis = model.rod == "rigid" and any(c.rod.cg_lateral for c in cylinders)
+        assert kin is not None
         planar.append(loads.rod_inertia(kin, rod_mass, rod_cg, lateral,
                                         _column([c.rod.inertia for c in cylinders]), l, off_axis))
     if not planar:
@@ -246,7 +248,7 @@ def cylinder_types(cylinders) -> tuple[list, np.ndarray]:
     label, throw unbalances) share a type: one representative per type and each cylinder's
     type index."""
     groups: dict[tuple, int] = {}
-    representatives = []
+    representatives: list = []
     index = np.empty(len(cylinders), dtype=int)
     for i, c in enumerate(cylinders):
         key = tuple(getattr(c, name) for name in TYPE_FIELDS)
@@ -393,19 +395,20 @@ def _unbalance_loads(scene: Scene, theta: np.ndarray, throw: np.ndarray, cyl: _C
     owner = [i for i, c in enumerate(cyls) for _ in c.throw_unbalances]
     if owner:
         ub = [u for c in cyls for u in c.throw_unbalances]
-        f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None],
+        angles = np.array([throw[i] + u.angle for i, u in zip(owner, ub)])[:, None]
+        f, m = loads.rotating_unbalance(theta[None, :] - lag + angles,
                                         np.array([u.unbalance for u in ub])[:, None],
                                         np.array([u.x for u in ub])[:, None], sense)
         np.add.at(cyl.force, owner, f)
         np.add.at(cyl.moment, owner, m)
         np.add.at(cyl.peak_force, owner, [u.unbalance for u in ub])
     if scene.crankshaft_unbalances:
-        ub = scene.crankshaft_unbalances
-        f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([u.angle for u in ub])[:, None],
-                                        np.array([u.unbalance for u in ub])[:, None],
-                                        np.array([u.x for u in ub])[:, None], sense)
+        crank_ub = scene.crankshaft_unbalances
+        f, m = loads.rotating_unbalance(theta[None, :] - lag + np.array([u.angle for u in crank_ub])[:, None],
+                                        np.array([u.unbalance for u in crank_ub])[:, None],
+                                        np.array([u.x for u in crank_ub])[:, None], sense)
         crank_force, crank_moment = f.sum(axis=0), m.sum(axis=0)
-        crank_peak = sum(u.unbalance for u in ub)
+        crank_peak = sum(u.unbalance for u in crank_ub)
     return crank_force, crank_moment, crank_peak
 
 

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.schema import Flywheel, Problem, SceneError
 from .evaluate import UnitLoads
 from .gas import GasLoads
 from .speed import SpeedFluctuation, flywheel_for, periodic_speed
-from ..scene.schema import Flywheel, Problem, SceneError
 
 
 def crank_inertia(unit: UnitLoads, gas: GasLoads) -> tuple[np.ndarray, np.ndarray]:
@@ -46,6 +46,7 @@ def crank_speeds(flywheel: Flywheel, speeds, unit: UnitLoads, gas: GasLoads) -> 
 
 def flywheels_needed(flywheel: Flywheel, speeds, unit: UnitLoads, gas: GasLoads) -> list[float]:
     """The constant inertia J₀ that gives ``flywheel.target_coefficient`` at each of ``speeds`` [rad/s]."""
+    assert flywheel.target_coefficient is not None  # asked for only with a target
     variable, derivative = crank_inertia(unit, gas)
     torque = gas.total_torque
     try:

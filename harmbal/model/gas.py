@@ -22,12 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene import Scene, SceneError
+from ..scene.firing import cylinder_firing
 from .evaluate import ON_GRID
 from .kinematics import slider_crank
 from .pressure import check_gas, cylinder_pressure, stroke, top_dead_centre_travel
 from .sampling import interpolate
-from ..scene import Scene, SceneError
-from ..scene.firing import cylinder_firing
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,7 +180,7 @@ def _templates(cyls, firing_angle: list[float], samples_per_rev: int, m: int) ->
         # comparison (none at all for the same object, the usual case).
         first = next((j for j in evaluated if _same_loads(cyls[j], c)), None)
         steps = None if first is None else grid_steps(firing_angle[i] - firing_angle[first], samples_per_rev)
-        if steps is not None:
+        if first is not None and steps is not None:  # steps is None when first is
             template[i], shift[i] = first, steps % m
         elif first is None:
             evaluated.append(i)

@@ -56,7 +56,7 @@ class SliderCrank:
     drod_angle: np.ndarray
     ddrod_angle: np.ndarray
 
-    def rod_point(self, along: np.ndarray, lateral: np.ndarray, length: np.ndarray):
+    def rod_point(self, along: float | np.ndarray, lateral: float | np.ndarray, length: float | np.ndarray):
         """A point fixed in the rod: ``along`` the axis from the big end and
         ``lateral`` off it (towards +n at TDC).
 
@@ -80,7 +80,7 @@ class SliderCrank:
         )
 
 
-def crank_pin(psi: np.ndarray, r: np.ndarray):
+def crank_pin(psi: np.ndarray, r: float | np.ndarray):
     """Crank-pin centre and its ψ-derivatives: A = r(cos ψ, sin ψ), A'' = −A."""
     c, s = r * np.cos(psi), r * np.sin(psi)
     return (c, s), (-s, c), (-c, -s)
@@ -88,9 +88,9 @@ def crank_pin(psi: np.ndarray, r: np.ndarray):
 
 def slider_crank(
     psi: np.ndarray,
-    r: np.ndarray,
-    l: np.ndarray,
-    e: np.ndarray,
+    r: float | np.ndarray,
+    l: float | np.ndarray,
+    e: float | np.ndarray,
     series_harmonics: int | None = None,
 ) -> SliderCrank:
     """Offset slider-crank positions and transfer functions.

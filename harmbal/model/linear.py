@@ -69,6 +69,7 @@ def planar_basis(model: Model, cylinders, psi: np.ndarray) -> np.ndarray | None:
         series = model.series_harmonics if model.piston == "series" else None
         kin = slider_crank(psi, r, l, _column([c.offset for c in cylinders]), series)
     if "reciprocating" in effects:
+        assert kin is not None  # made above for these effects
         piston = add(piston, loads.reciprocating(kin, 1.0, _column([c.piston.cg_lateral for c in cylinders]), 0.0))
         # 1 kg on the pin axis (no lateral CG), times the rod's share there.
         rod = add(rod, loads.reciprocating(kin, 1.0, 0.0, 0.0), small_end)
@@ -78,6 +79,7 @@ def planar_basis(model: Model, cylinders, psi: np.ndarray) -> np.ndarray | None:
     if "rod_inertia" in effects and model.rod != "two_point":
         lateral = _column([c.rod.cg_lateral for c in cylinders])
         off_axis = model.rod == "rigid" and bool(np.any(lateral))
+        assert kin is not None
         rod = add(rod, loads.rod_inertia(kin, 1.0, rod_cg, lateral, 0.0, l, off_axis))
         inertia = add(inertia, loads.rod_inertia(kin, 0.0, rod_cg, lateral, 1.0, l, False))
     basis = []

@@ -92,6 +92,9 @@ class FourBarMotion:
     def point(self, body: str, local: complex):
         """A point fixed in the rocker or the coupler, given in the body's
         local frame: (position, first, second derivative), complex arrays."""
+        origin: complex | np.ndarray
+        d_origin: float | np.ndarray
+        dd_origin: float | np.ndarray
         if body == "rocker":
             origin, d_origin, dd_origin = self.pivot, 0.0, 0.0
             angle, d_angle, dd_angle = self.rocker, self.drocker, self.ddrocker
@@ -132,7 +135,7 @@ def four_bar(lever: LeverBalancer, theta: np.ndarray, sense: int) -> FourBarMoti
     db = dc * kappa + d * dkappa
     ddb = ddc * kappa + 2 * dc * dkappa + d * ddkappa
 
-    def angle(v, dv, ddv, length2):
+    def angle(v, dv, ddv, length2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Angle of a vector of constant length and its derivatives:
         ϑ' = Im(v̄·v')/|v|², ϑ'' = Im(v̄·v'')/|v|²."""
         return np.angle(v), (np.conj(v) * dv).imag / length2, (np.conj(v) * ddv).imag / length2

@@ -36,13 +36,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..labelled import Speeds, with_speed_indexes
+from ..scene import Scene
+from ..scene.elements import TRANSMISSION_WARNING, closure
 from ..scene.requests import PEAK_SAMPLES
 from .kinematics import slider_crank
-from ..scene.elements import TRANSMISSION_WARNING, closure
 from .linkage import four_bar, to_engine
-from ..scene import Scene
 from .sampling import choose_samples
-from ..labelled import Speeds, with_speed_indexes
 
 
 def _cross(p, q):

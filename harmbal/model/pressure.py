@@ -125,7 +125,8 @@ def check_gas(scene: Scene) -> None:
     """Build every cylinder's parametric trace now, so that an infeasible
     target is reported as a :class:`SceneError` naming the scene file, the
     key and the cylinder before anything is computed."""
-    problems, solved = [], []
+    problems: list[Problem] = []
+    solved: list[tuple[tuple, list[Problem]]] = []
     for c in scene.cylinders:
         if c.gas is None or not isinstance(c.gas.trace, Combustion):
             continue
@@ -453,7 +454,7 @@ def _integrate_closed(cycle: _Cycle) -> _ClosedCycle:
         table[:, inside[closed]] = solution.y[:2]
         solutions.append((low, high, solution.sol))
         y = solution.y[:, -1] if solution.t.size and solution.t[-1] == high else solution.sol(high)
-    return _ClosedCycle(alpha=alpha, closed=closed, table=table, solutions=solutions, at_evo=y)
+    return _ClosedCycle(alpha=alpha, closed=closed, table=table, solutions=solutions, at_evo=np.asarray(y))
 
 
 def _closed_pressure(closed: _ClosedCycle, a: float, q: float) -> float:
@@ -523,6 +524,7 @@ def _heat_for_target(c: Combustion, peak, motored_peak: float, imep_a: float, im
                               f"below the motored peak pressure {motored_peak * p_ref / 1e5:.6g} bar (compression "
                               "alone reaches it): raise the target, or lower compression_ratio or intake_pressure")
         return _heat_for_peak(peak, target, c.peak_pressure)
+    assert c.imep is not None  # a combustion table gives peak_pressure or imep
     target = c.imep / p_ref
     q = (target - imep_a) / imep_b if imep_b > 0 else -1.0
     if not q > 0:

@@ -13,7 +13,6 @@ from ..scene.schema import MAX_SAMPLES
 from .kinematics import decay_rate
 from .linkage import decay_rate as linkage_decay_rate
 
-
 #: Factor on the extrapolated tail: the further aliases and the fit's error (see aliasing_estimate).
 ALIAS_SAFETY = 4
 
@@ -50,6 +49,7 @@ def choose_samples(scene: Scene, decay_rates: np.ndarray | None = None, *, gas: 
     sampling = scene.sampling
     if sampling.samples_per_rev is not None:
         return sampling.samples_per_rev
+    assert sampling.accuracy is not None  # a scene gives samples_per_rev or an accuracy
     k = sampling.max_order
     rho = float((body_decay_rates(scene) if decay_rates is None else decay_rates).max())
     n = 4 * k
@@ -97,6 +97,7 @@ def inertia_samples(scene: Scene, decay_rates: np.ndarray | None = None, samples
     if not simulates_gas(scene) or scene.sampling.samples_per_rev is not None:
         return n
     own = choose_samples(scene, rates, gas=False)
+    assert scene.sampling.accuracy is not None  # a scene gives samples_per_rev or an accuracy
     rho = float(rates.max())
     needed = [2 * _tail_order(rho, scene.sampling.accuracy, scene.sampling.max_order)] if rho > 0 else []
     if "balancers" in scene.model.effects:
@@ -174,5 +175,6 @@ def body_decay_rates(scene: Scene) -> np.ndarray:
     cyls = scene.cylinders
     rho = decay_rate(np.array([c.crank_radius for c in cyls]), np.array([c.rod_length for c in cyls]),
                      np.array([c.offset for c in cyls]))
-    levers = [linkage_decay_rate(lever, scene.sense) for lever in scene.levers] if "balancers" in scene.model.effects else []
+    levers = ([linkage_decay_rate(lever, scene.sense) for lever in scene.levers]
+              if "balancers" in scene.model.effects else [])
     return np.append(rho, max(levers, default=0.0))

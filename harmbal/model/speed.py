@@ -433,7 +433,8 @@ def _start_energy(work: np.ndarray, inertia: np.ndarray, mean_speed: float, mean
         raise StallError(
             f"the mean speed {mean_speed:.6g} rad/s is too low for the torque swing: the crank train would "
             f"stall (kinetic energy zero at theta = {theta0 + period * j / work.size:.6g} rad): the lowest "
-            f"angle-mean speed without a stall is {at_floor + mean_speed:.6g} rad/s; raise the mean speed or the inertia")
+            f"angle-mean speed without a stall is {at_floor + mean_speed:.6g} rad/s; "
+            "raise the mean speed or the inertia")
     return _brentq(excess, floor, ceiling, "the kinetic energy at the start of the cycle")
 
 

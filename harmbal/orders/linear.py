@@ -76,7 +76,8 @@ def geometry_key(scene: Scene) -> Scene:
     with equal keys differ only in their slot values (and so share one
     :class:`LinearPhasors`)."""
     cylinders = tuple(replace(
-        c, piston=replace(c.piston, mass=0.0), rod=replace(c.rod, mass=0.0, inertia=None if c.rod.inertia is None else 0.0),
+        c, piston=replace(c.piston, mass=0.0),
+        rod=replace(c.rod, mass=0.0, inertia=None if c.rod.inertia is None else 0.0),
         throw_unbalances=tuple(replace(u, unbalance=0.0) for u in c.throw_unbalances)) for c in scene.cylinders)
     return replace(scene, cylinders=cylinders, source_text="", source="",
                    crankshaft_unbalances=tuple(replace(u, unbalance=0.0) for u in scene.crankshaft_unbalances))

@@ -126,6 +126,7 @@ def order_phasors(unit: UnitLoads, backend: str = "scipy") -> OrderPhasors:
         alias_roll += tail[:, 2][group]
 
     # The throw unbalances and the crankshaft's elements, in closed form.
+    assert unit.unbalance_phasors is not None, "order phasors need an evaluation that is not tangential"
     force[:, :, 1] += unit.unbalance_phasors[0]
     moment[:, :, 1] += unit.unbalance_phasors[1]
     crank_force, crank_moment = (p.copy() for p in unit.crankshaft_phasors)
@@ -133,6 +134,7 @@ def order_phasors(unit: UnitLoads, backend: str = "scipy") -> OrderPhasors:
     ref = unit.reference_point
     lever_alias_force = lever_alias_moment = 0.0
     if unit.force_levers is not None:
+        assert unit.moment_levers is not None  # the levers' force and moment come together
         spec_f, spec_m = phasors(np.stack([unit.force_levers, unit.moment_levers]), backend)  # moment about the origin
         crank_force += spec_f[:, : kmax + 1]
         crank_moment += spec_m[:, : kmax + 1]

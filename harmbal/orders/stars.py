@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Sequence
 
 import numpy as np
-
-
 
 #: Angles of a crank star closer than this [rad] form one arm.
 STAR_TOL = 1e-9
@@ -41,7 +40,7 @@ def star_is_regular(angles: np.ndarray, tol: float = STAR_TOL) -> bool:
     return bool(np.all(np.abs(gaps - 2 * np.pi / m) <= m * tol))
 
 
-def crank_stars(throws: tuple[float, ...], banks: tuple[float, ...], max_order: int):
+def crank_stars(throws: Sequence[float] | np.ndarray, banks: Sequence[float] | np.ndarray, max_order: int):
     """Star angles (order, cylinder), regularity and resultants of the whole
     crank and of each bank, for cylinders with these throw and bank angles
     [rad]. Cached: a design loop or a repeated analysis asks for the same
@@ -53,18 +52,18 @@ def crank_stars(throws: tuple[float, ...], banks: tuple[float, ...], max_order: 
 def _crank_stars(throws: tuple[float, ...], banks: tuple[float, ...], kmax: int):
     throw = np.array(throws)
     bank = np.array(banks)
-    banks = []
+    distinct: list[float] = []  # the bank angles, each once
     for b in bank:
-        if not any(abs(np.remainder(b - q + np.pi, 2 * np.pi) - np.pi) <= STAR_TOL for q in banks):
-            banks.append(b)
-    member = [np.abs(np.remainder(bank - q + np.pi, 2 * np.pi) - np.pi) <= STAR_TOL for q in banks]
+        if not any(abs(np.remainder(b - q + np.pi, 2 * np.pi) - np.pi) <= STAR_TOL for q in distinct):
+            distinct.append(b)
+    member = [np.abs(np.remainder(bank - q + np.pi, 2 * np.pi) - np.pi) <= STAR_TOL for q in distinct]
     order = np.arange(kmax + 1)
     angles = np.mod(np.outer(order, throw), 2 * np.pi)
     unit = np.exp(1j * angles)
     regular = np.array([star_is_regular(row) for row in angles])
     bank_regular = np.array([[star_is_regular(row[m]) for m in member] for row in angles])
     bank_resultant = np.stack([unit[:, m].sum(axis=1) for m in member], axis=1)
-    out = angles, regular, unit.sum(axis=1), np.array(banks), bank_regular, bank_resultant
+    out = angles, regular, unit.sum(axis=1), np.array(distinct), bank_regular, bank_resultant
     for array in out:
         array.flags.writeable = False
     return out

@@ -86,7 +86,7 @@ class _Page:
     rendered at the end, by :func:`harmbal.reporting.svg.figures_svg` (two at
     a time where the machine allows)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.parts: list[str] = []
         self.figures: list[tuple] = []
 
@@ -329,8 +329,9 @@ def _stars(page: _Page, tree) -> None:
     page.add('<section id="stars"><h2>Crank stars and phasor diagrams</h2>')
     if free_phasor_orders(_first_speed(stars)):
         note = review_stars_note(stars)
-        page.figure(partial(review_stars_figure, stars), "Crank stars and the free force and moment phasors of the orders "
-                    f"with a free force or moment (each cylinder's arrow head to tail, co- and counter-rotating). {note}", "stars")
+        page.figure(partial(review_stars_figure, stars),
+                    "Crank stars and the free force and moment phasors of the orders with a free force or moment "
+                    f"(each cylinder's arrow head to tail, co- and counter-rotating). {note}", "stars")
     else:
         page.add("<p>No order has a free force or moment: nothing to draw.</p>")
     page.add("</section>")
@@ -349,8 +350,9 @@ def _traces(page: _Page, runs: _Runs) -> None:
                     "traces")
         page.figure(partial(locus_figure, after), f"Locus of the transverse force and moment over {period}.", "locus")
     else:
-        page.figure(partial(time_traces_figure, before, after=after), "Shaking force and moment per axis over the crank "
-                    "angle, without the balancer elements (solid) and with them (dashed).", "traces")
+        page.figure(partial(time_traces_figure, before, after=after),
+                    "Shaking force and moment per axis over the crank angle, without the balancer elements (solid) "
+                    "and with them (dashed).", "traces")
         page.figure(partial(locus_figure, before, after=after), "Locus of the transverse force and moment, without and "
                     "with the balancer elements.", "locus")
     page.add("</section>")
@@ -378,8 +380,9 @@ def _balancers(page: _Page, scene, tree) -> None:
     if rows:
         page.add(_table(["element", "type", "speed ratio", "unbalance", "angle at θ = 0", "axial position",
                          "axis (y, z)"], rows, 2))
-        page.figure(partial(phasing_figure, scene), "Phasing of the balancer elements at θ = 0: each unbalance as n²·U in "
-                    "its direction (+z up, the direction of rotation to the right).", "phasing")
+        page.figure(partial(phasing_figure, scene),
+                    "Phasing of the balancer elements at θ = 0: each unbalance as n²·U in its direction "
+                    "(+z up, the direction of rotation to the right).", "phasing")
     if "verify" in tree.children:
         check = _first_speed(tree["verify"].ds)
         vrows = [[f"order {k} {name.replace('_', ' ')}", f"{abs(complex(row['before'])):.5g} {units}",
@@ -414,12 +417,13 @@ def _lever(page: _Page, scene, tree, runs: _Runs) -> None:
                   f"{float(joints['discriminant_margin'].sel(lever=label)):.4g}"] for label in joints["lever"].values]
         page.add(_table(["lever", "minimum transmission angle", "at θ", "closure margin min sin²γ"], drows, 1))
     if scene.levers:
-        page.figure(partial(mechanism_figure, scene), "The mechanism at four crank angles: cranks (dark), con-rods (blue) and "
+        page.figure(partial(mechanism_figure, scene),
+                    "The mechanism at four crank angles: cranks (dark), con-rods (blue) and "
                     "pistons (squares) on their cylinder axes (dashed); each lever balancer's second crank pin (grey), "
-                    "the balance weight B–C (vermillion, the dot its centre of gravity), the rocker (green) and its "
-                    "fixed pivot (triangle).", "mechanism")
-    page.figure(partial(lever_figure, joints), "Joint force magnitudes and the transmission angle over the crank angle.",
-                "lever")
+                    "the balance weight B–C (vermillion, the dot its centre of gravity), the rocker (green) "
+                    "and its fixed pivot (triangle).", "mechanism")
+    page.figure(partial(lever_figure, joints),
+                "Joint force magnitudes and the transmission angle over the crank angle.", "lever")
     _lever_weight(page, scene, runs)
     page.add("</section>")
 
@@ -512,8 +516,7 @@ def _shown_speeds(rpm) -> tuple[list[int], str]:
 
 def _torque(page: _Page, scene, tree) -> None:
     from ..orders.spectrum import BALANCED_RTOL
-    from .plots import (pressure_figure, speed_fluctuation_figure, torque_figure, torque_scale,
-                        torque_spectrum_figure)
+    from .plots import pressure_figure, speed_fluctuation_figure, torque_figure, torque_scale, torque_spectrum_figure
 
     if "torque" not in tree.children:
         return
@@ -545,13 +548,13 @@ def _torque(page: _Page, scene, tree) -> None:
     page.add(_table(["quantity", "value"], rows, 1) + note)
 
     page.add("<h3>Torque over the working cycle</h3>")
-    page.figure(partial(torque_figure, torque), f"Torque on the crankshaft in the direction of rotation over the working "
-                f"cycle at {rpm:.6g} rpm (constant speed): the gas torque of all cylinders, the mass torque the "
-                "moving parts take from the crank, the torque the crank delivers (gas − mass) and its mean.",
+    page.figure(partial(torque_figure, torque), "Torque on the crankshaft in the direction of rotation over the "
+                f"working cycle at {rpm:.6g} rpm (constant speed): the gas torque of all cylinders, the mass torque "
+                "the moving parts take from the crank, the torque the crank delivers (gas − mass) and its mean.",
                 "torque")
     page.add(f"<h3>Torque orders at {rpm:.6g} rpm</h3>")
-    page.figure(partial(torque_spectrum_figure, torque), f"Orders of the delivered and of the gas torque at {rpm:.6g} rpm "
-                "(peak amplitudes); major orders shaded.", "torque-spectrum")
+    page.figure(partial(torque_spectrum_figure, torque), f"Orders of the delivered and of the gas torque at {rpm:.6g} "
+                "rpm (peak amplitudes); major orders shaded.", "torque-spectrum")
     scale = torque_scale(torque)
     gas = torque["gas_torque_order"].sum("cylinder").values
     total = at["torque_order"].values
@@ -564,9 +567,9 @@ def _torque(page: _Page, scene, tree) -> None:
     page.add(_table(["order", "major", "delivered amplitude [N m]", "delivered phase", "gas amplitude [N m]",
                      "gas phase"], rows, 2)
              + f'<p class="note">T(θ) = Σ Re(C_k·e^{{ikθ}}) with k in {"half " if span > 360 else ""}orders of the '
-             "crank speed: amplitudes are peak values, phases at θ = 0 (throw 1 along +z). A major order is one where every cylinder's gas "
-             f"harmonic is in phase. Components within {BALANCED_RTOL:g} of the largest order amplitude cancel "
-             "and are shown as 0.</p>")
+             "crank speed: amplitudes are peak values, phases at θ = 0 (throw 1 along +z). A major order is one "
+             f"where every cylinder's gas harmonic is in phase. Components within {BALANCED_RTOL:g} of the largest "
+             "order amplitude cancel and are shown as 0.</p>")
     if "omega" in torque:
         page.add("<h3>Speed fluctuation</h3>")
         page.figure(partial(speed_fluctuation_figure, torque), f"Crank speed over the working cycle at a mean of "
@@ -603,9 +606,9 @@ def _loads(page: _Page, scene, tree) -> None:
     at = _first_speed(loads)
     rpm = float(at["rpm"])
     span = 360 * int(loads.attrs["revolutions"])
-    several = "speed" in loads.dims
+    sweep_note = " (the first speed of the sweep; every speed is in the Datasets)" if "speed" in loads.dims else ""
     page.add('<section id="loads"><h2>Bearing and interface loads</h2>'
-             f'<p class="note">At {rpm:.6g} rpm{" (the first speed of the sweep; every speed is in the Datasets)" if several else ""}, '
+             f'<p class="note">At {rpm:.6g} rpm{sweep_note}, '
              f"constant speed, over {span}°{' with the cylinder pressure' if loads.attrs['gas'] == 'yes' else ''}. "
              "Peaks and means are of the magnitude; see docs/loads.md for the frames and the method.</p>"
              "<h3>Crank train</h3>")
@@ -614,14 +617,15 @@ def _loads(page: _Page, scene, tree) -> None:
         row = at.sel(cylinder=label)
         for name, meaning in CRANK_TRAIN_LOADS:
             rows.append([str(label), meaning, f"{float(row[name + '_peak']):.5g} N",
-                         f"{math.degrees(float(row[name + '_peak_angle'])):.1f}°", f"{float(row[name + '_mean']):.5g} N"])
+                         f"{math.degrees(float(row[name + '_peak_angle'])):.1f}°",
+                         f"{float(row[name + '_mean']):.5g} N"])
     page.add(_table(["cylinder", "joint", "peak", "at θ", "mean"], rows, 2))
     drawn = _distinct_cylinders(scene)
     which = "" if len(drawn) == len(scene.cylinders) else (
         f" of cylinder{'s' if len(drawn) > 1 else ''} {', '.join(drawn)} (the others' diagrams are the same)")
-    page.figure(partial(crank_pin_figure, loads, cylinders=drawn), f"Polar diagrams{which} at {rpm:.6g} rpm: the con-rod's "
-                "force on the crank pin in the crank frame (radial outwards up, tangential in the direction of "
-                "rotation to the right; the dot is the peak), and the crank pin's force on the big-end bearing in "
+    page.figure(partial(crank_pin_figure, loads, cylinders=drawn), f"Polar diagrams{which} at {rpm:.6g} rpm: the "
+                "con-rod's force on the crank pin in the crank frame (radial outwards up, tangential in the direction "
+                "of rotation to the right; the dot is the peak), and the crank pin's force on the big-end bearing in "
                 "the rod frame.", "crank-pin")
     if "bearing" in loads.dims:
         page.add("<h3>Main bearings</h3>")
@@ -635,9 +639,9 @@ def _loads(page: _Page, scene, tree) -> None:
                  + '<p class="note">Statically determinate split: each load on the crankshaft is carried by the two '
                  "main bearings around it by the lever rule (overhung loads by the last two). A continuous-beam "
                  "solution shares the loads differently (docs/loads.md).</p>")
-        page.figure(partial(main_bearing_figure, loads), f"Main-bearing loads at {rpm:.6g} rpm: the crankshaft's force on "
-                    "each bearing over the angle in the block frame (+z up, t to the right); the dot is the peak.",
-                    "main-bearings")
+        page.figure(partial(main_bearing_figure, loads), f"Main-bearing loads at {rpm:.6g} rpm: the crankshaft's "
+                    "force on each bearing over the angle in the block frame (+z up, t to the right); the dot is the "
+                    "peak.", "main-bearings")
         orders = [k for k in at["order"].values if 0 < k <= MAIN_BEARING_ORDERS]
         phasors = at["main_bearing_order"].sel(order=orders)
         rows = [[str(label)] + [f"{abs(complex(phasors.sel(bearing=label, rotation=r, order=k))):.4g}"

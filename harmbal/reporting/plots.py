@@ -27,15 +27,15 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..orders.stars import star_arms
-from ..scene.requests import signed_ratio
 from ..io.files import atomic_path
-from ..scene.elements import TRANSMISSION_WARNING
 from ..orders.spectrum import BALANCED_RTOL, is_balanced, phase_degrees
+from ..orders.stars import star_arms
+from ..scene.elements import TRANSMISSION_WARNING
+from ..scene.requests import signed_ratio
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -151,9 +151,9 @@ def supxlabel(fig: Figure, text: str, fontsize: float, **style) -> None:
     fig.supxlabel(fitted(text, 0.96 * fig.get_figwidth(), fontsize), fontsize=fontsize, **style)
 
 
-def page_coordinates(values) -> tuple[np.ndarray, np.ndarray]:
+def page_coordinates(values) -> tuple[Any, Any]:
     """Page coordinates (horizontal, vertical) of transverse vectors
-    w = z + i·t: t to the right, z up."""
+    w = z + i·t: t to the right, z up (arrays, or numbers for one vector)."""
     values = np.asarray(values)
     return values.imag, values.real
 
@@ -279,8 +279,8 @@ def star_arms_drawn(ax: Axes, stars: xr.Dataset, order: int, centre: tuple[float
     for angle, members in star_arms(angles):
         direction = np.array([np.sin(angle), np.cos(angle)])
         normal = np.array([direction[1], -direction[0]])
-        groups = [[i for i in members if bank_of[i] == j] for j in range(len(banks))]
-        groups = [(j, g) for j, g in enumerate(groups) if g]
+        by_bank = [[i for i in members if bank_of[i] == j] for j in range(len(banks))]
+        groups = [(j, g) for j, g in enumerate(by_bank) if g]
         for n, (j, group) in enumerate(groups):
             shift = (n - (len(groups) - 1) / 2) * 0.05 * normal
             text = ",".join(labels[i] for i in group)
@@ -468,7 +468,6 @@ def phasor_diagram(stars: xr.Dataset, order: int, quantity: str = "force", ax: A
         chains[rotation] = (labels, arrows, tails, resultant)
         points.extend(heads)
         points.append(resultant)
-    points = np.asarray(points)
     x, y = page_coordinates(points)
     half = max(np.ptp(x), np.ptp(y), np.abs(x).max(), np.abs(y).max()) * 0.55
     if not half > 0:
@@ -757,7 +756,8 @@ def _bar_collection(ax: Axes, centre: np.ndarray, height: np.ndarray, width: flo
     zero = np.zeros_like(height)
     verts = np.stack([np.stack([left, zero], -1), np.stack([left, height], -1), np.stack([right, height], -1),
                       np.stack([right, zero], -1)], axis=1)
-    bars = PolyCollection(verts, facecolors=colour, edgecolors="none", gid=gid)
+    # matplotlib's stubs ask for a sequence of polygons; a (polygon, vertex, 2) array is one.
+    bars = PolyCollection(verts, facecolors=colour, edgecolors="none", gid=gid)  # type: ignore[arg-type]
     bars.sticky_edges.y.append(0)
     ax.add_collection(bars, autolim=True)
     ax.autoscale_view()
@@ -1111,8 +1111,9 @@ def lever_figure(joints: xr.Dataset, *, speed: int = 0) -> Figure:
     fig = Figure(figsize=(12.0, 5.2), layout="constrained")
     left, right = fig.subplots(1, 2)
     force = sel["joint_force"]
+    # np.hypot of two DataArrays is a DataArray (numpy's stubs say ndarray).
     angle, magnitude = _closed(sel["angle"].values, np.hypot(force.sel(axis="y"), force.sel(axis="z"))
-                               .transpose("joint", "angle").values)
+                               .transpose("joint", "angle").values)  # type: ignore[call-overload]
     for i, (name, values) in enumerate(zip(sel["joint"].values, magnitude)):
         left.plot(angle, values, lw=1.1, label=str(name), gid=f"joint-{i}", **series_style(i))
     _angle_axis(left)
@@ -1447,7 +1448,8 @@ def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
     fmt = path.suffix.lower().lstrip(".")
     if fmt not in FIGURE_FORMATS:
         raise ValueError(f"{path}: figures are written as .svg or .png, not {path.suffix or 'no extension'!r}")
-    options = {"svg": {"metadata": {"Date": None}}, "png": {"dpi": 150}}[fmt]
+    by_format: dict[str, dict[str, Any]] = {"svg": {"metadata": {"Date": None}}, "png": {"dpi": 150}}
+    options = by_format[fmt]
     with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "harmbal", "svg.fonttype": "none"}):
         fig.savefig(tmp, format=fmt, **options)
     return path

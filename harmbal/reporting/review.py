@@ -273,7 +273,8 @@ def quiet_orders(after: list[OrderLoads], before: list[OrderLoads] | None) -> tu
     """The orders left out of the headline: (negligible, zero): nothing
     free before or after, and something negligible, or everything zero."""
     shown = {o.order for o in after if o.free} | {o.order for o in before or () if o.free}
-    negligible, zero = [], []
+    negligible: list[float] = []
+    zero: list[float] = []
     for o in after:
         if o.order in shown:
             continue

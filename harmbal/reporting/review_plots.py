@@ -14,10 +14,25 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .plots import (AXIS_COLOURS, SPECTRUM_ROTATION_COLOURS, at_speed, bank_colours, fitted, named_colour,
-                    page_coordinates, phasor_bars, phasor_diagram, rotation_label, select_speed, series_style,
-                    star_arms_drawn, suptitle, supxlabel, t_label)
 from ..orders.spectrum import ZERO
+from .plots import (
+    AXIS_COLOURS,
+    SPECTRUM_ROTATION_COLOURS,
+    at_speed,
+    bank_colours,
+    fitted,
+    named_colour,
+    page_coordinates,
+    phasor_bars,
+    phasor_diagram,
+    rotation_label,
+    select_speed,
+    series_style,
+    star_arms_drawn,
+    suptitle,
+    supxlabel,
+    t_label,
+)
 
 if TYPE_CHECKING:
     import xarray as xr

@@ -241,7 +241,8 @@ def _half(figures: list) -> list[int]:
     """Indices of about half the work (:data:`COSTS`) for the child: the
     dearest first, each to the lighter side."""
     order = sorted(range(len(figures)), key=lambda i: -COSTS.get(figures[i][2], 1.0))
-    sides, loads = ([], []), [0.0, 0.0]
+    sides: tuple[list[int], list[int]] = ([], [])
+    loads = [0.0, 0.0]
     for i in order:
         side = 0 if loads[0] <= loads[1] else 1
         sides[side].append(i)

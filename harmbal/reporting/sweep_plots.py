@@ -104,7 +104,8 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
         if others:
             table = table.min(others)
         table = table.transpose(y, x)
-        mesh = ax.pcolormesh(_shown(ds, x, table[x]), _shown(ds, y, table[y]), table.values, shading="nearest", cmap="viridis")
+        mesh = ax.pcolormesh(_shown(ds, x, table[x]), _shown(ds, y, table[y]), table.values,
+                             shading="nearest", cmap="viridis")
         fig.colorbar(mesh, ax=ax, label=fitted(f"order {order} {what} amplitude [{units}]", 3.6, 10))
         ax.set_ylabel(_label(ds, y))
     elif grid and len(keys) > 1:
@@ -113,8 +114,8 @@ def sweep_figure(ds: xr.Dataset, x: str | None = None, y: str | None = None, *, 
             table = table.min(others)
         colours = list(OKABE_ITO.values())[1:]
         for i, k in enumerate(table["order"].values):
-            ax.plot(_shown(ds, x, table[x]), table.sel(order=k).values, marker="o", ms=3, color=colours[i % len(colours)],
-                    label=f"order {int(k)}")
+            ax.plot(_shown(ds, x, table[x]), table.sel(order=k).values, marker="o", ms=3,
+                    color=colours[i % len(colours)], label=f"order {int(k)}")
         ax.legend()
         ax.set_ylabel(f"{what} amplitude [{units}]")
     else:

@@ -174,7 +174,7 @@ def _all_cancelled(ds, dim: str) -> np.ndarray:
     groups = np.array(["force" if str(c).startswith("force") else "moment" for c in ds["component"].values])
     zero = np.stack([_classes(ds, residual[..., c], groups[c]) == ZERO for c in range(len(groups))], axis=-1)
     targeted = ds["design_targeted"].transpose("design_order", "component").values
-    return zero[:, targeted].all(axis=1)
+    return np.asarray(zero[:, targeted].all(axis=1))
 
 
 def _cancel_groups(ds) -> str:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..orders.spectrum import BALANCED_RTOL, FREE, NEGLIGIBLE, ZERO, classify, is_balanced, phase_degrees
@@ -145,7 +147,8 @@ def cell_classes(sel: dict, attrs: dict) -> dict:
     from ..scene.schema import DEFAULT_NEGLIGIBLE
 
     fraction, cylinders = float(attrs.get("negligible", DEFAULT_NEGLIGIBLE)), int(attrs.get("cylinders", 1))
-    out, levels = {}, {}
+    out: dict[str, Any] = {}  # name -> class array; "levels" -> the levels by unit
+    levels: dict[str, float] = {}
     for name, units in (("force", "N"), ("moment", "N m")):
         scale = float(sel[f"{name}_scale"])
         level = float(sel.get(f"{name}_negligible_level", negligible_level(scale, cylinders, fraction)))
@@ -230,10 +233,11 @@ def stars_table(stars) -> str:
     :func:`harmbal.stars`, one block per speed, with a verdict per order."""
     attrs = stars.attrs
     intervals = ", ".join(f"{d:g}" for d in np.round(np.degrees(stars["firing_interval"].values), 2))
+    given = "given" if attrs.get("firing_order_given") == "yes" else "derived: the most even firing"
     lines = [
         f"{attrs.get('engine', '')}: {stars.sizes['cylinder']} cylinders, {attrs.get('cylinder_types')} cylinder "
         f"type(s); effects {attrs.get('effects', '')}; {attrs.get('samples_per_rev')} samples/rev per type",
-        f"Firing order {attrs.get('firing_order')} ({'given' if attrs.get('firing_order_given') == 'yes' else 'derived: the most even firing'}); intervals {intervals}° "
+        f"Firing order {attrs.get('firing_order')} ({given}); intervals {intervals}° "
         f"({'even' if attrs.get('firing_even') == 'yes' else 'uneven'})",
         "Star: arms k·φ in degrees (×multiplicity). Amplitude (peak) and phase at θ = 0 of the co- and "
         "counter-rotating transverse phasors; roll = moment about the crank axis.",
@@ -270,7 +274,8 @@ def verification_table(check) -> str:
              f"{'order':>5}{'|ΔF| [N]':>12}{'|ΔM| [N m]':>12}  result"]
     force = np.atleast_2d(check["force_difference"].values).max(axis=0)
     moment = np.atleast_2d(check["moment_difference"].values).max(axis=0)
-    ok = np.atleast_2d(check["force_passed"].values).all(axis=0) & np.atleast_2d(check["moment_passed"].values).all(axis=0)
+    ok = np.asarray(np.atleast_2d(check["force_passed"].values).all(axis=0)
+                    & np.atleast_2d(check["moment_passed"].values).all(axis=0))
     for k in check["order"].values:
         lines.append(f"{k:>5}{force[k]:>12.2g}{moment[k]:>12.2g}  {'pass' if ok[k] else 'FAIL'}")
     lines.append(f"tolerance {float(np.max(check['force_tolerance'])):.2g} N, "
@@ -432,7 +437,8 @@ def loads_table(loads) -> str:
             for name, meaning in CRANK_TRAIN_LOADS:
                 row = sel.sel(cylinder=label)
                 lines.append(f"  {str(label):<10}{meaning:<30}{float(row[name + '_peak']):>12.5g}"
-                             f"{np.degrees(float(row[name + '_peak_angle'])):>8.1f}°{float(row[name + '_mean']):>12.5g}")
+                             f"{np.degrees(float(row[name + '_peak_angle'])):>8.1f}°"
+                             f"{float(row[name + '_mean']):>12.5g}")
         if "bearing" in sel.dims:
             lines += ["Main bearings (statically determinate split; force of the crankshaft on the bearing)",
                       f"  {'bearing':<10}{'x [mm]':>10}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
@@ -607,9 +613,10 @@ def _verify_axis_rows(sel) -> list[str]:
         for prefix, order in [("peak_", None)] + [("", k) for k in sel["order"].values]:
             for axis in sel["axis"].values:
                 at = {"axis": axis} if order is None else {"order": order, "axis": axis}
-                values = (sel[f"{prefix}{name}_{what}"].sel(at) for what in ("before", "after", "removed"))
-                lines += _verify_axis_row("peak" if order is None else order, f"{name} {axis} [{units}]", *values,
-                                          scale, level)
+                before, after, removed = (sel[f"{prefix}{name}_{what}"].sel(at)
+                                          for what in ("before", "after", "removed"))
+                lines += _verify_axis_row("peak" if order is None else order, f"{name} {axis} [{units}]", before,
+                                          after, removed, scale, level)
     return lines
 
 

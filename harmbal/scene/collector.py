@@ -17,7 +17,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Mapping, overload
 
 from .ranges import KEY_RANGES, key_problem, magnitude_problem
 from .schema import MISSING, Gas, Problem, closest_match, key_path
@@ -126,7 +126,15 @@ class Collector:
             return default
         return value
 
-    def integer(self, table: Mapping, key: str, path: str, default: Any, minimum: int,
+    @overload
+    def integer(self, table: Mapping, key: str, path: str, default: int, minimum: int,
+                maximum: int | None = None) -> int: ...
+
+    @overload
+    def integer(self, table: Mapping, key: str, path: str, default: None, minimum: int,
+                maximum: int | None = None) -> int | None: ...
+
+    def integer(self, table: Mapping, key: str, path: str, default: int | None, minimum: int,
                 maximum: int | None = None) -> int | None:
         """An integer from ``minimum`` to ``maximum`` (default: the top of the
         key's range in :data:`~.ranges.KEY_RANGES`, which every integer key has)."""
@@ -167,6 +175,11 @@ class Collector:
         items = {f"{key}[{i + 1}]": v for i, v in enumerate(value)}
         return tuple(self.quantity(items, k, path, dimension) for k in items)
 
+    def pair(self, table: Mapping, key: str, path: str, dimension: str, default: Any) -> tuple[float, float]:
+        """A list of two quantities of ``dimension`` (:meth:`quantity_list`) as a pair."""
+        first, second = self.quantity_list(table, key, path, dimension, 2, default)
+        return first, second
+
     def array(self, raw: Any, path: str) -> list[tuple[str, Mapping]]:
         """Entries of an array of tables with their key paths."""
         if not isinstance(raw, list) or not all(isinstance(e, Mapping) for e in raw):
@@ -176,8 +189,7 @@ class Collector:
 
     def position(self, table: Mapping, key: str, path: str) -> tuple[float, float]:
         """A transverse position [y, z]."""
-        y, z = self.quantity_list(table, key, path, "length", 2, [0, 0])
-        return y, z
+        return self.pair(table, key, path, "length", [0, 0])
 
     # -- the scene ---------------------------------------------------------
 

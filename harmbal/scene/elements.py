@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
 #: Sign conventions for products of inertia: "integral" is J_xy = +∫x·y dm;
 #: "tensor" is the inertia-tensor entry D_xy = −∫x·y dm.
 PRODUCT_CONVENTIONS = ("integral", "tensor")
@@ -180,6 +179,7 @@ def closure(lever: LeverBalancer, sense: int) -> Closure:
 
 def closure_message(lever: LeverBalancer, result: Closure) -> str:
     """Why the loop cannot close, in words with the numbers."""
+    assert result.failure is not None, "only a loop that cannot close has a failure to word"
     kind, theta = result.failure
     a, b = lever.rocker_length * 1e3, lever.coupler_length * 1e3
     d_min, d_max = (v * 1e3 for v in result.distance)

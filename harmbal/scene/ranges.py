@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 #: The values ``[model] negligible`` may take (below 1e-12 it would only relabel round-off).
 NEGLIGIBLE_RANGE = (1e-12, 0.1)
@@ -90,15 +91,15 @@ MAGNITUDES: dict[str, Range] = {
     "density": Range(1.0, 1e5, unit="kg/m^3", why="foams to the densest metals"),
 }
 
-_BAR = {"unit": "bar", "scale": 1e5}
+_BAR: dict[str, Any] = {"unit": "bar", "scale": 1e5}
 
 #: The interval each dimensionless or integer key must lie in, and narrower intervals some quantities need, by
 #: the key's last name.
 KEY_RANGES: dict[str, Range] = {
     # [sampling], [model], [engine]
     "samples_per_rev": Range(8, MAX_SAMPLES, why="crank angles per revolution, and at least 2·max_order + 2"),
-    "max_order": Range(1, MAX_ORDER, why=f"the highest order reported; harmbal samples at least 4 × max_order and at most "
-                                                f"{MAX_SAMPLES} per revolution"),
+    "max_order": Range(1, MAX_ORDER, why="the highest order reported; harmbal samples at least 4 × max_order "
+                                         f"and at most {MAX_SAMPLES} per revolution"),
     "accuracy": Range(1e-16, 0.1, open_high=True, why="relative error"),
     "negligible": Range(*NEGLIGIBLE_RANGE, why="a fraction of one cylinder's share of the load scale"),
     "series_harmonics": Range(1, MAX_SERIES_HARMONICS, why="harmonics the series piston model keeps"),

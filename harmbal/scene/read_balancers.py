@@ -9,8 +9,19 @@ import math
 from typing import Any, Mapping
 
 from .collector import Collector
-from .elements import (ASSEMBLY_MODES, PRODUCT_CONVENTIONS, TRANSMISSION_WARNING, LeverBalancer, LinkBody, Shaft,
-                       ShaftUnbalance, closure, closure_message, couple_from_moment, couple_from_products)
+from .elements import (
+    ASSEMBLY_MODES,
+    PRODUCT_CONVENTIONS,
+    TRANSMISSION_WARNING,
+    LeverBalancer,
+    LinkBody,
+    Shaft,
+    ShaftUnbalance,
+    closure,
+    closure_message,
+    couple_from_moment,
+    couple_from_products,
+)
 from .ranges import KEY_RANGES, MAX_RATIO
 from .read_cylinders import read_unbalance_size
 from .read_shapes import BLANK_KEYS, read_blank
@@ -93,7 +104,7 @@ def _crankshaft(reader: Collector, data: Mapping, sense: int) -> tuple[Shaft, ..
 def _counterweights(reader: Collector, raw: Any) -> tuple[Shaft, ...]:
     """Crank counterweights: static unbalances turning with the crank on
     its axis, angles relative to throw 1."""
-    shafts = []
+    shafts: list[Shaft] = []
     for path, entry in reader.array(raw, "counterweight"):
         reader.unknown(entry, path, _COUNTERWEIGHT_KEYS)
         label = reader.string(entry, "label", path, f"counterweight {len(shafts) + 1}")
@@ -137,7 +148,7 @@ def _shaft_unbalances(reader: Collector, raw: Any, path: str) -> tuple[ShaftUnba
 
 
 def _balance_shafts(reader: Collector, raw: Any, sense: int) -> tuple[Shaft, ...]:
-    shafts = []
+    shafts: list[Shaft] = []
     for path, entry in reader.array(raw, "balance_shaft"):
         reader.unknown(entry, path, _SHAFT_KEYS)
         label = entry.get("label", f"shaft {len(shafts) + 1}")
@@ -161,7 +172,7 @@ def _balance_shafts(reader: Collector, raw: Any, sense: int) -> tuple[Shaft, ...
 def _lanchester_pairs(reader: Collector, raw: Any) -> tuple[Shaft, ...]:
     """Each pair: two shafts at +n and −n with equal unbalances pointing
     the same way at θ = 0, at given heights (z) and lateral positions (y)."""
-    shafts = []
+    shafts: list[Shaft] = []
     for path, entry in reader.array(raw, "lanchester_pair"):
         reader.unknown(entry, path, _LANCHESTER_KEYS)
         label = str(entry.get("label", f"Lanchester pair {len(shafts) // 2 + 1}"))
@@ -173,8 +184,8 @@ def _lanchester_pairs(reader: Collector, raw: Any) -> tuple[Shaft, ...]:
         u, angle = _weight(reader, entry, path)
         phase = reader.quantity(entry, "phase", path, "angle", default=0.0)
         x = reader.quantity(entry, "axial_position", path, "length", default=0.0)
-        heights = reader.quantity_list(entry, "heights", path, "length", 2, [0, 0])
-        lateral = reader.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
+        heights = reader.pair(entry, "heights", path, "length", [0, 0])
+        lateral = reader.pair(entry, "lateral", path, "length", [0, 0])
         for ratio, y, z, side, sign in ((order, lateral[0], heights[0], "+", 1), (-order, lateral[1], heights[1],
                                                                                   "−", -1)):
             shafts.append(Shaft(f"{label} ({side}{order}×)", ratio, y, z,
@@ -185,14 +196,14 @@ def _lanchester_pairs(reader: Collector, raw: Any) -> tuple[Shaft, ...]:
 def _lever_balancers(reader: Collector, raw: Any, sense: int) -> tuple[LeverBalancer, ...]:
     """Four-bar lever balancers, refused unless the loop closes at every
     crank angle (with the link lengths and the failing angle named)."""
-    levers = []
+    levers: list[LeverBalancer] = []
     for path, entry in reader.array(raw, "lever_balancer"):
         reader.unknown(entry, path, _LEVER_KEYS)
         label = reader.string(entry, "label", path, f"lever balancer {len(levers) + 1}")
         x = reader.quantity(entry, "axial_position", path, "length", default=0.0)
         radius = reader.quantity(entry, "pin_radius", path, "length", positive=True)
         angle = reader.quantity(entry, "pin_angle", path, "angle")
-        pivot = reader.quantity_list(entry, "pivot", path, "length", 2, MISSING)
+        pivot = reader.pair(entry, "pivot", path, "length", MISSING)
         rocker_length = reader.quantity(entry, "rocker_length", path, "length", positive=True)
         coupler_length = reader.quantity(entry, "coupler_length", path, "length", positive=True)
         assembly = "ahead"
@@ -206,7 +217,7 @@ def _lever_balancers(reader: Collector, raw: Any, sense: int) -> tuple[LeverBala
             where = key_path(path, name)
             table = reader.table(entry, name, where, _LINK_KEYS, required=True)
             bodies[name] = LinkBody(reader.quantity(table, "mass", where, "mass", nonnegative=True),
-                                    reader.quantity_list(table, "cg", where, "length", 2, [0, 0]),
+                                    reader.pair(table, "cg", where, "length", [0, 0]),
                                     reader.quantity(table, "inertia", where, "inertia", nonnegative=True))
         lever = LeverBalancer(label, x, radius, angle, pivot, rocker_length, coupler_length, assembly,
                               bodies["rocker"], bodies["coupler"])

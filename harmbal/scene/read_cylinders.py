@@ -20,7 +20,7 @@ _CYLINDER_KEYS = {"label", "throw", "bank", "axial_position", "geometry", "pisto
 _UNBALANCE_KEYS = {"unbalance", "mass", "radius", "angle"}
 
 
-def read_shared_tables(reader: Collector, data: Mapping) -> dict[str, dict]:
+def read_shared_tables(reader: Collector, data: Mapping) -> dict[str, dict | None]:
     """The shared [geometry], [piston], [rod] and [gas] tables every cylinder overrides."""
     return {
         "geometry": reader.table(data, "geometry", "geometry", _GEOMETRY_KEYS),
@@ -102,7 +102,7 @@ def _cylinder(reader: Collector, context: SceneContext, entry: Mapping, path: st
 
 
 def _pair_at(reader: Collector, table: dict, key: str, where: dict[str, str], section: str) -> tuple[float, float]:
-    return reader.quantity_list(table, key, where.get(key, section), "length", 2, [0, 0])  # type: ignore
+    return reader.pair(table, key, where.get(key, section), "length", [0, 0])
 
 
 def _rod(reader: Collector, table: dict, where: dict[str, str], path: str, length: float, model: Model) -> ConRod:

@@ -9,8 +9,21 @@ from typing import Any, Mapping
 import numpy as np
 
 from .collector import Collector
-from .schema import (MISSING, DEFAULT_ACCURACY, DEFAULT_MAX_ORDER, DEFAULT_NEGLIGIBLE, EFFECTS, INERTIA_EFFECTS,
-                     PISTON_MODELS, ROD_MODELS, ROTATIONS, Cylinder, Model, Sampling, closest_match)
+from .schema import (
+    DEFAULT_ACCURACY,
+    DEFAULT_MAX_ORDER,
+    DEFAULT_NEGLIGIBLE,
+    EFFECTS,
+    INERTIA_EFFECTS,
+    MISSING,
+    PISTON_MODELS,
+    ROD_MODELS,
+    ROTATIONS,
+    Cylinder,
+    Model,
+    Sampling,
+    closest_match,
+)
 
 _ENGINE_KEYS = {"name", "description", "cycle", "rotation", "speed", "reference_point", "firing_order"}
 _SWEEP_KEYS = {"from", "to", "points"}
@@ -92,17 +105,17 @@ def read_firing_order(reader: Collector, engine: Mapping, cylinders: tuple[Cylin
     if reader.problems:  # the geometry may be invalid; check the order once it is not
         return order
     try:
-        given = cylinder_firing(cylinders, cycle, order)
+        firing = cylinder_firing(cylinders, cycle, order)
     except FiringOrderError as exc:
         reader.fail(key, raw, f"not possible with these throws and banks: {exc}")
         return None
     # An order whose consecutive cylinders share a TDC that the crank could fire apart (its most even firing
     # has no two at once) lists as successive two firings that come at the same instant: possible (cams can
     # do it), but rarely what was meant.
-    together = [i for i, gap in enumerate(given.interval) if gap <= ANGLE_TOL]
+    together = [i for i, gap in enumerate(firing.interval) if gap <= ANGLE_TOL]
     derived = cylinder_firing(cylinders, cycle)
     if together and min(derived.interval) > ANGLE_TOL:
-        first, second = given.sequence[together[0]], given.sequence[(together[0] + 1) % len(given.sequence)]
+        first, second = firing.sequence[together[0]], firing.sequence[(together[0] + 1) % len(firing.sequence)]
         best = "-".join(labels[i] for i in derived.sequence)
         reader.warn(FiringWarning(
             f"{reader.source}: {key} = {raw!r}: cylinders {labels[first]} and {labels[second]} fire at the same "

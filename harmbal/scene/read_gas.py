@@ -19,8 +19,17 @@ import numpy as np
 
 from .collector import Collector, SceneContext
 from .ranges import MAGNITUDES
-from .schema import (MISSING, DEFAULT_CRANKCASE_PRESSURE, INTERPOLATIONS, SPEED_MEANS, Combustion, Flywheel, Gas,
-                     PressureTrace, key_path)
+from .schema import (
+    DEFAULT_CRANKCASE_PRESSURE,
+    INTERPOLATIONS,
+    MISSING,
+    SPEED_MEANS,
+    Combustion,
+    Flywheel,
+    Gas,
+    PressureTrace,
+    key_path,
+)
 from .source_files import MAX_TRACE_BYTES, FileRefused, read_regular, resolve_trace
 from .units import to_si
 
@@ -101,7 +110,7 @@ def read_flywheel(reader: Collector, data: Mapping, has_gas: bool) -> Flywheel |
 
 
 def merge_gas(reader: Collector, shared: Mapping | None, entry: Mapping,
-              path: str) -> tuple[dict, dict[str, str]] | None:
+              path: str) -> tuple[dict, dict[str, Any]] | None:
     """A cylinder's gas table: the shared [gas] overlaid key by key by its
     own ``gas`` table (sub-tables likewise; a cylinder giving ``trace``
     drops the shared ``combustion`` and vice versa, and a trace giving
@@ -111,7 +120,9 @@ def merge_gas(reader: Collector, shared: Mapping | None, entry: Mapping,
     if shared is None and "gas" not in entry:
         return None
     shared = shared or {}
-    merged, where = {}, {}
+    # where: the section of each key, and of each key of a sub-table (a dict)
+    merged: dict[str, Any] = {}
+    where: dict[str, Any] = {}
     for key in GAS_KEYS - {"trace", "combustion"}:
         if key in own:
             merged[key], where[key] = own[key], key_path(path, "gas")
@@ -134,7 +145,7 @@ def merge_gas(reader: Collector, shared: Mapping | None, entry: Mapping,
     return merged, where
 
 
-def read_gas(reader: Collector, context: SceneContext, merged: tuple[dict, dict[str, str]] | None,
+def read_gas(reader: Collector, context: SceneContext, merged: tuple[dict, dict[str, Any]] | None,
              cycle: int) -> Gas | None:
     """The validated :class:`Gas` of one cylinder (None without a gas table)."""
     if merged is None:
@@ -154,6 +165,7 @@ def read_gas(reader: Collector, context: SceneContext, merged: tuple[dict, dict[
         reader.unknown({name: value}, where[key][name], allowed)
     # Problems of the sub-table as a whole go where the cylinder wrote it, or to the shared one.
     section = next((w for w in where[key].values() if not w.startswith("gas.")), f"gas.{key}")
+    trace: PressureTrace | Combustion | None
     if key == "trace":
         crankcase_key = key_path(where.get("crankcase_pressure", "gas"), "crankcase_pressure")
         trace = _trace(reader, context, table["trace"], where["trace"], section, cycle, (crankcase, crankcase_key))
@@ -236,8 +248,8 @@ def _trace_inline(reader: Collector, table: Mapping, at, units: Mapping) -> _Col
         if name not in units:
             reader.fail(at(name), f"{len(lists[name])} numbers",
                         f"no unit: {_units_fix(at('units'), name)}{_which_units(name)}")
-        elif _unknown_unit(name, units[name]):
-            reader.fail(key_path(at("units"), name), units[name], _unknown_unit(name, units[name]))
+        elif problem := _unknown_unit(name, units[name]):
+            reader.fail(key_path(at("units"), name), units[name], problem)
         else:
             found[name] = units[name]
     if len(found) < len(_COLUMNS):
@@ -259,7 +271,9 @@ def _trace_file(reader: Collector, context: SceneContext, name: Any, at, units: 
     text = _trace_text(reader, context, name, path, key)
     if text is None:
         return None
-    angle, pressure, header = [], [], None
+    angle: list[float] = []
+    pressure: list[float] = []
+    header = None
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
@@ -316,9 +330,10 @@ def _file_units(reader: Collector, angle: list, pressure: list, header: list[str
     ``units`` (the two must agree). None after a problem."""
     cells = list(header or []) + [""] * len(_COLUMNS)
     read = [_column_unit(reader, i, cells[i], header is not None, name, at, units) for i in range(len(_COLUMNS))]
-    if any(r is None for r in read):
+    columns = [r for r in read if r is not None]
+    if len(columns) < len(read):
         return None
-    units, names, fixes = ({d: r[j] for d, r in zip(_COLUMNS, read)} for j in range(3))  # (unit, name, fix)
+    units, names, fixes = ({d: r[j] for d, r in zip(_COLUMNS, columns)} for j in range(3))  # (unit, name, fix)
     return _Columns(angle, pressure, name[1], at("file"), units, names, fixes, written=name[0])
 
 

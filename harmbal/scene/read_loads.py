@@ -69,7 +69,7 @@ def _distinct(reader: Collector, key: str, raw: Any, positions: tuple[float, ...
 def _static_loads(reader: Collector, raw: Any, path: str) -> tuple[StaticLoad, ...]:
     """Static forces given as ``force`` = [y, z] or as a ``mass`` (its
     weight, along −z), at an ``axial_position``."""
-    loads = []
+    loads: list[StaticLoad] = []
     for where, entry in reader.array(raw, path):
         reader.unknown(entry, where, _STATIC_KEYS)
         label = reader.string(entry, "label", where, f"static load {len(loads) + 1}")
@@ -77,7 +77,7 @@ def _static_loads(reader: Collector, raw: Any, path: str) -> tuple[StaticLoad, .
             reader.fail(where, sorted(entry), "give force = [y, z] or mass (its weight along −z), one of them")
             force = (math.nan, math.nan)
         elif "force" in entry:
-            force = reader.quantity_list(entry, "force", where, "force", 2, MISSING)
+            force = reader.pair(entry, "force", where, "force", MISSING)
         else:
             force = (0.0, -GRAVITY * reader.quantity(entry, "mass", where, "mass", positive=True))
         x = reader.quantity(entry, "axial_position", where, "length")
@@ -98,7 +98,7 @@ def _element(reader: Collector, path: str, entry: Mapping, shafts: tuple[Shaft, 
     on_crank = any(s.on_crank for s in named)
     bearings = None
     if "bearings" in entry:
-        bearings = reader.quantity_list(entry, "bearings", path, "length", 2, MISSING)
+        bearings = reader.pair(entry, "bearings", path, "length", MISSING)
         _distinct(reader, key_path(path, "bearings"), entry["bearings"], bearings)
     inertia = reader.quantity(entry, "inertia", path, "inertia", positive=True) if "inertia" in entry else None
     fasteners = reader.integer(entry, "fasteners", path, None, 1)

@@ -5,13 +5,23 @@ checks ([verify], with the predicted residuals)."""
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from typing import Any, Mapping
 
 from .collector import Collector
 from .ranges import KEY_RANGES, MAX_RATIO
-from .requests import (CANCEL, COMPONENTS, LEVER_OBJECTIVES, LEVER_SIGNALS, OBJECTIVES, PEAK_SIGNALS, Candidate,
-                       DesignRequest, LeverDesignRequest, VerifyRequest)
 from .read_shapes import BLANK_KEYS, read_blank
+from .requests import (
+    CANCEL,
+    COMPONENTS,
+    LEVER_OBJECTIVES,
+    LEVER_SIGNALS,
+    OBJECTIVES,
+    PEAK_SIGNALS,
+    Candidate,
+    DesignRequest,
+    LeverDesignRequest,
+    VerifyRequest,
+)
 from .schema import MISSING, key_path
 
 _DESIGN_KEYS = {"orders", "cancel", "objective", "peak", "counterweights", "balance_shaft", "moment_shaft",
@@ -30,7 +40,7 @@ _PREDICTED_KEYS = {"order"} | {name for name, _ in COMPONENTS}
 def read_requests(reader: Collector, data: Mapping,
                   max_order: int) -> tuple[DesignRequest | LeverDesignRequest | None, VerifyRequest | None]:
     """The [design] and [verify] requests, None where the scene has none."""
-    requests = {}
+    requests: dict[str, Any] = {}  # design and verify requests, of different types
     for key, allowed, read in (("design", _DESIGN_KEYS, _design), ("verify", _VERIFY_KEYS, _verify)):
         table = reader.table(data, key, key, allowed)  # reports a non-table and unknown keys
         requests[key] = read(reader, table, max_order) if isinstance(data.get(key), Mapping) else None
@@ -83,7 +93,7 @@ def _lever_design(reader: Collector, raw: dict, max_order: int) -> LeverDesignRe
     bounds = {}
     for key, dimension in (("mass", "mass"), ("cg_x", "length"), ("cg_y", "length")):
         if key in lever:
-            low, high = reader.quantity_list(lever, key, "design.lever", dimension, 2, MISSING)
+            low, high = reader.pair(lever, key, "design.lever", dimension, MISSING)
             if math.isfinite(low) and math.isfinite(high) and not low <= high:
                 reader.fail(f"design.lever.{key}", lever[key], "must be [low, high] with low <= high")
             if key == "mass" and math.isfinite(low) and low < 0:
@@ -115,8 +125,8 @@ def _candidate(reader: Collector, kind: str, path: str, entry: Mapping, max_orde
         else:
             reader.fail(key_path(path, "order"), MISSING, "missing: the order n the pair cancels (shafts at ±n×)")
         x = reader.quantity(entry, "axial_position", path, "length", default=0.0)
-        heights = reader.quantity_list(entry, "heights", path, "length", 2, [0, 0])
-        lateral = reader.quantity_list(entry, "lateral", path, "length", 2, [0, 0])
+        heights = reader.pair(entry, "heights", path, "length", [0, 0])
+        lateral = reader.pair(entry, "lateral", path, "length", [0, 0])
         return Candidate(kind, label, order, (x,), heights=heights, lateral=lateral, max_unbalance=bound,
                          blank=read_blank(reader, entry, path, sizing=True))
     y, z = reader.position(entry, "axis_position", path)

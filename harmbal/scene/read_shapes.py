@@ -7,9 +7,22 @@ import math
 from typing import Any, Mapping
 
 from .collector import Collector
-from .shapes import (OUTLINE_BODIES, SOLVABLE, Blank, Box, Disc, Outline, PointMass, Sector, Segment, Strip,
-                     convex_ccw, sector_polygon)
 from .schema import MISSING, key_path
+from .shapes import (
+    OUTLINE_BODIES,
+    SOLVABLE,
+    AreaShape,
+    Blank,
+    Box,
+    Disc,
+    Outline,
+    PointMass,
+    Sector,
+    Segment,
+    Strip,
+    convex_ccw,
+    sector_polygon,
+)
 
 #: Keys of a blank in a [[counterweight]] or [[design.counterweights]] table.
 BLANK_KEYS = {"density", "thickness", "shape"}
@@ -36,7 +49,9 @@ def read_blank(reader: Collector, entry: Mapping, path: str, sizing: bool = Fals
         return None
     density = reader.quantity(entry, "density", path, "density", positive=True)
     thickness = reader.quantity(entry, "thickness", path, "length", positive=True)
-    parts, solve, solve_range = [], [], None
+    parts: list[AreaShape | PointMass] = []
+    solve: list[tuple[int, str]] = []
+    solve_range = None
     for where, table in reader.array(entry.get("shape", MISSING), key_path(path, "shape")):
         part, free, bounds = _shape(reader, table, where, sizing)
         if free is not None:
@@ -82,7 +97,7 @@ def _shape(reader: Collector, table: Mapping, path: str, sizing: bool):
             reader.fail(key_path(path, "solve_range"), table["solve_range"], "only with solve")
         else:
             dimension = "angle" if free == "half_angle" else "mass" if free == "mass" else "length"
-            bounds = reader.quantity_list(table, "solve_range", path, dimension, 2, MISSING)
+            bounds = reader.pair(table, "solve_range", path, dimension, MISSING)
             if not bounds[0] < bounds[1]:
                 reader.fail(key_path(path, "solve_range"), table["solve_range"], "must be [low, high], low < high")
 
@@ -97,8 +112,8 @@ def _shape(reader: Collector, table: Mapping, path: str, sizing: bool):
         part = PointMass(mass, length("radius", positive=False),
                          reader.quantity(table, "angle", path, "angle", default=0.0))
         return part, free, bounds
-    common = {"direction": reader.quantity(table, "direction", path, "angle", default=0.0),
-              "centre": reader.quantity_list(table, "centre", path, "length", 2, [0, 0]),
+    common: dict[str, Any] = {"direction": reader.quantity(table, "direction", path, "angle", default=0.0),
+              "centre": reader.pair(table, "centre", path, "length", [0, 0]),
               "thickness": (reader.quantity(table, "thickness", path, "length", positive=True)
                             if "thickness" in table else None),
               "hole": _flag(reader, table, "hole", path)}
@@ -187,7 +202,7 @@ def read_outlines(reader: Collector, raw: Any, cylinders, shafts) -> tuple[Outli
         points, radius = _outline_shape(reader, entry, path, kind)
         axial = None
         if "axial_range" in entry:
-            axial = reader.quantity_list(entry, "axial_range", path, "length", 2, MISSING)
+            axial = reader.pair(entry, "axial_range", path, "length", MISSING)
             if not axial[0] < axial[1]:
                 reader.fail(key_path(path, "axial_range"), entry["axial_range"],
                             "must be [x_min, x_max], x_min < x_max")
@@ -207,7 +222,7 @@ def _outline_shape(reader: Collector, entry: Mapping, path: str, kind: str):
     for key in sorted(set(entry) & (_OUTLINE_KEYS - {"part", "body", "cylinder", "kind", "axial_range"}) - allowed):
         reader.fail(key_path(path, key), entry[key], f"not a key of a {kind} outline; allowed: "
                     + ", ".join(sorted(allowed)))
-    centre = reader.quantity_list(entry, "centre", path, "length", 2, [0, 0])
+    centre = reader.pair(entry, "centre", path, "length", [0, 0])
     direction = reader.quantity(entry, "direction", path, "angle", default=0.0)
     if kind == "circle":
         return (centre,), reader.quantity(entry, "radius", path, "length", positive=True)
@@ -232,7 +247,7 @@ def _outline_shape(reader: Collector, entry: Mapping, path: str, kind: str):
     if not isinstance(raw, list) or not raw:
         reader.fail(key_path(path, "vertices"), raw, "must be a list of [u, v] points (lengths)")
         return None, 0.0
-    points = [reader.quantity_list({f"vertices[{i + 1}]": p}, f"vertices[{i + 1}]", path, "length", 2, MISSING)
+    points = [reader.pair({f"vertices[{i + 1}]": p}, f"vertices[{i + 1}]", path, "length", MISSING)
               for i, p in enumerate(raw)]
     if not all(math.isfinite(c) for p in points for c in p):
         return None, 0.0

@@ -9,7 +9,7 @@ in. The format is documented in ``docs/scenes.md``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -211,7 +211,7 @@ class Flywheel:
     inertia: float
     load_torque: float | None = None
     target_coefficient: float | None = None
-    mean: str = "time"
+    mean: Literal["time", "angle"] = "time"
 
 
 @dataclass(frozen=True)

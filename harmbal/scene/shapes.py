@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -243,14 +244,21 @@ class Blank:
     def with_dimension(self, value: float, solve: tuple[int, str] | None = None) -> "Blank":
         """The same blank with the dimension ``solve`` (default
         :attr:`solve`) set to ``value``."""
-        index, name = solve or self.solve
+        index, name = self._chosen(solve)
         parts = list(self.parts)
-        parts[index] = replace(parts[index], **{name: value})
+        change: dict[str, Any] = {name: value}
+        parts[index] = replace(parts[index], **change)
         return replace(self, parts=tuple(parts))
+
+    def _chosen(self, solve: tuple[int, str] | None) -> tuple[int, str]:
+        """``solve``, else the blank's own :attr:`solve`, which a sized blank has."""
+        chosen = solve or self.solve
+        assert chosen is not None, "a blank without solve needs the dimension to change"
+        return chosen
 
     def dimension(self, solve: tuple[int, str] | None = None) -> float:
         """The current value of the dimension ``solve`` (default :attr:`solve`)."""
-        index, name = solve or self.solve
+        index, name = self._chosen(solve)
         return getattr(self.parts[index], name)
 
 
@@ -328,7 +336,7 @@ def sector_polygon(radius: float, half_angle: float, direction: float = 0.0,
 def convex_ccw(points) -> tuple[tuple[float, float], ...] | None:
     """The vertices counterclockwise if they form a convex polygon (in the
     order given, either way round), else None. One or two points pass."""
-    pts = [tuple(map(float, p)) for p in points]
+    pts: list[tuple[float, float]] = [tuple(map(float, p)) for p in points]  # type: ignore[misc]  # pairs
     if len(pts) < 3:
         return tuple(pts)
     n = len(pts)

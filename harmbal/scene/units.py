@@ -227,9 +227,10 @@ def _fast(text: str, dimension: str) -> float | None:
             position = gap.end()
         elif "e" in digits.lower() or text[position] in "eE":
             return None  # pint's preprocessing reads these its own way
-        value, units = _evaluate(text, position, value)
-        if units is None:
+        value, evaluated = _evaluate(text, position, value)
+        if evaluated is None:
             return None
+        units = evaluated
     if dimension == "speed" and not any(name.startswith("revolutions_per_") or not _dimension(name) for name in units):
         return None  # ambiguous ("50 Hz"): pint words the refusal
     target = dict(_SI[dimension])
@@ -361,7 +362,7 @@ def _factor(units: dict[str, int]) -> float:
                     del fraction["numerator"][d_factor]
                     continue
 
-    factor = 1
+    factor: float = 1
     for n_factor, n_exponent in fraction["numerator"].items():
         if n_exponent != 0:
             factor *= n_factor**n_exponent

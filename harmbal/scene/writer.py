@@ -83,7 +83,8 @@ def with_engine(text: str, engine: dict[str, str]) -> str:
 
     The first 'key = "..."' line is [engine]'s: [engine] is required first."""
     for key, value in engine.items():
-        text = re.sub(rf'(?m)^(\s*{key}\s*=\s*)"[^"\n]*"', lambda m: m.group(1) + inline(value), text, count=1)
+        # re.sub calls the lambda before the next iteration: the value it reads is this key's
+        text = re.sub(rf'(?m)^(\s*{key}\s*=\s*)"[^"\n]*"', lambda m: m.group(1) + inline(value), text, count=1)  # noqa: B023
     return text
 
 

@@ -77,7 +77,8 @@ def sweep_dataset(scene: Scene, plan: Plan, arrays: dict, orders: np.ndarray, di
     coords.update({
         "order": variable(("order",), orders, {"long_name": "order of crank speed", "units": "1"}),
         "axis": variable(("axis",), np.array(["x", "y", "z"]), {"long_name": "engine axis"}),
-        "rotation": variable(("rotation",), np.array(ROTATION), {"long_name": "sense of rotation relative to the crank"}),
+        "rotation": variable(("rotation",), np.array(ROTATION),
+                             {"long_name": "sense of rotation relative to the crank"}),
     })
     if speeds.several:
         coords.update(speeds.coords())
@@ -146,7 +147,8 @@ def _key_coords(plan: Plan, arrays: dict, dim: str) -> dict:
     """Each key a coordinate along the variant axis: SI values, SI units and the units to show them in."""
     coords = {}
     for key in plan.keys:
-        key_attrs: dict[str, Any] = {"long_name": f"scene key {key}", "kind": "linear" if key in plan.linear else "geometry"}
+        key_attrs: dict[str, Any] = {"long_name": f"scene key {key}",
+                                     "kind": "linear" if key in plan.linear else "geometry"}
         si_units, display_units = plan.units[key]
         if si_units is not None:
             key_attrs.update(units=si_units, display_units=display_units)

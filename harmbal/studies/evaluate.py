@@ -211,7 +211,8 @@ def evaluate_chunked(plan: Plan, options: BlockOptions, chunk: int) -> dict:
         import dask
         import dask.array as da
     except ImportError:
-        raise ImportError("chunked sweeps need dask: pip install dask distributed zarr (the extra harmbal[dask])") from None
+        raise ImportError("chunked sweeps need dask: pip install dask distributed zarr "
+                          "(the extra harmbal[dask])") from None
     count = plan.variants.count
     template = evaluate_block(plan, 0, 1, options)
     shared = dask.delayed(plan, traverse=False)  # one copy of the bases in the graph, not one per chunk

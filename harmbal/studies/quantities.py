@@ -80,7 +80,8 @@ def display_factor(units: str | None) -> float:
     return 1.0 if units in (None, "", "1") else quantity_value(f"1 {units}")[0]
 
 
-def key_units(dimension: str | None, typed: AbstractSet[str | None] = frozenset({None})) -> tuple[str | None, str | None]:
+def key_units(dimension: str | None,
+              typed: AbstractSet[str | None] = frozenset({None})) -> tuple[str | None, str | None]:
     """The SI units of a key's values (CF ``units``; ``"1"`` for a
     dimensionless key) and the units to show them in: the units the values
     were typed in if they were all typed in one, else the SI units (plain

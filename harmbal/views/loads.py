@@ -120,7 +120,8 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     attrs.update({"title": f"harmbal loads: {scene.name}", "revolutions": revolutions,
                   "gas": "yes" if gas is not None else "no",
                   "harmbal_conventions": "constant crank speed; forces in the named frames (see each variable); "
-                                         "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); docs/loads.md"})
+                                         "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); "
+                                         "docs/loads.md"})
     return dataset(data, coords, attrs)
 
 
@@ -229,6 +230,7 @@ def _elements(request: LoadsRequest, shafts, sense: int, theta: np.ndarray, spee
     if bearing_rows:
         units, constants = [], []
         for shaft, e in bearing_rows:
+            assert e.bearings is not None  # rows were chosen by their bearings
             u, c = shaft_bearings(shaft, e.bearings, theta, [(to_w(s.force, sense), s.x) for s in e.static_loads],
                                   sense)
             units.append(u)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..labelled import (
@@ -77,7 +79,7 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
     unit = {name: unit_speed_values(ds[name].variable) for name in ("force", "moment")}
     swept = lead == ("speed",) and all(v is not None for v in unit.values())
     speeds = Speeds(ds["speed"].values if swept else 1.0)
-    parts = [{}, {}]  # unit-speed (or as given) and speed-independent spectra, tails and scales
+    parts: list[dict[str, Any]] = [{}, {}]  # unit-speed (or as given) and speed-independent spectra, tails and scales
     for name in ("force", "moment"):
         total, alias, scale = ds[name], ds.get(f"aliasing_error_{name}"), ds[f"{name}_scale"]
         if swept:
@@ -101,6 +103,7 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
     attrs.pop(SPEED_SCALING, None)
     arrays = [order_arrays(*_spectra(part), attrs, max_order=kmax, backend=backend, revolutions=revs)
               if part else None for part in parts]
+    assert arrays[0] is not None  # the unit-speed part always has the force and moment
     (values, attrs), gas = arrays[0], arrays[1]
     constants = None
     if gas is not None:
@@ -111,7 +114,7 @@ def order_spectrum(ds, *, max_order: int | None = None, backend: str = "scipy", 
     return orders_dataset(values, attrs, speeds, coords, lead=() if swept else lead, constants=constants)
 
 
-def _spectra(part: dict) -> tuple:
+def _spectra(part: dict) -> tuple[np.ndarray, np.ndarray, dict, dict]:
     """order_arrays' arguments from (spectrum, tail, scale) per name; a name
     missing in a speed-independent part (the gas has no force) is zero."""
     shape = next(iter(part.values()))
@@ -275,8 +278,8 @@ def order_classes(values: dict, constants: dict, speeds: Speeds, attrs: dict, le
             constant=None if constant is None else negligible_level(constant, cylinders, fraction))
 
     for name in ("force", "moment"):
-        data[f"{name}_class"] = judged(values[f"{name}_rotating"], values[f"{name}_scale"], lead + ("order", "rotation"),
-                                       f"class of the rotating {name} phasors")
+        data[f"{name}_class"] = judged(values[f"{name}_rotating"], values[f"{name}_scale"],
+                                       lead + ("order", "rotation"), f"class of the rotating {name} phasors")
         data[f"{name}_negligible_level"] = level(name, f"{name}_scale", None)
     gas_roll, gas_scale = constants.get("moment"), constants.get("moment_scale")
     if gas_roll is None and gas_scale is None:

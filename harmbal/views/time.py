@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .._version import __version__
@@ -69,7 +71,8 @@ def time_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, *, labels: list[st
     moment_cyl = ev.moments[0]
     alias_force, alias_moment = ev.aliasing
     # Speed-independent parts (gas) of the moment, its scale and aliasing estimate; the inertia repeats each turn.
-    theta, force_cyl, extra = unit.theta, unit.force_cylinder, {}
+    theta, force_cyl = unit.theta, unit.force_cylinder
+    extra: dict[str, Any] = {}
     if gas is None:
         force, moment = ev.totals
     else:
@@ -101,7 +104,7 @@ def time_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, *, labels: list[st
             "units": "N m", "long_name": "estimated aliasing error of the moment phasors, body by body"},
             "aliasing_error_moment"),
     }
-    if per_cylinder:
+    if labels is not None:  # per_cylinder
         coords["cylinder"] = ("cylinder", list(labels), {"long_name": "cylinder label"})
         dims = ("cylinder", "axis", "angle")
         data["force_cylinder"] = var(dims, force_cyl, {"units": "N", "long_name": "force of one cylinder"})
@@ -122,6 +125,7 @@ def fluctuating_time_dataset(scene: Scene, *, samples_per_rev: int | None = None
     from ..model.fluctuation import crank_speeds, fluctuating_loads
 
     # No drive holds the speed: the roll carries the load torque's reaction instead of the drive's.
+    assert scene.flywheel is not None  # the fluctuating path is taken only with a [flywheel]
     base = scene.with_effects(scene.model.effects - {"mass_torque"})
     unit = evaluate(base, samples_per_rev)
     per_alpha = evaluate(base, unit.samples_per_rev, tangential=True)
@@ -156,7 +160,8 @@ def fluctuating_time_dataset(scene: Scene, *, samples_per_rev: int | None = None
         "force": (lead + ("axis", "angle"), per_speed(force),
                   {"units": "N", "long_name": "shaking force on the block at the fluctuating speed"}),
         "moment": (lead + ("axis", "angle"), per_speed(moment), {
-            "units": "N m", "long_name": "shaking moment on the block about the reference point at the fluctuating speed"}),
+            "units": "N m",
+            "long_name": "shaking moment on the block about the reference point at the fluctuating speed"}),
         "force_scale": (lead, per_speed(scales["force_scale"]),
                         {"units": "N", "long_name": "bound on the sum of single-body peak forces"}),
         "moment_scale": (lead, per_speed(scales["moment_scale"]),
@@ -195,7 +200,7 @@ def attributes(scene: Scene, samples: int, gas: GasLoads | None = None) -> dict:
         "samples_per_rev": samples,
         "max_order": scene.sampling.max_order,
         # The relative accuracy asked for; 0 when the scene fixes samples_per_rev instead.
-        "accuracy_target": float(scene.sampling.accuracy) if scene.sampling.samples_per_rev is None else 0.0,
+        "accuracy_target": float(scene.sampling.accuracy or 0.0) if scene.sampling.samples_per_rev is None else 0.0,
     }
     if gas is not None:
         attrs.update({"samples_per_rev": gas.theta.size // gas.revolutions, "inertia_samples_per_rev": samples,

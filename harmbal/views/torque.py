@@ -5,6 +5,7 @@ and the torsional excitation, as a Dataset."""
 from __future__ import annotations
 
 import functools
+from typing import Any
 
 import numpy as np
 
@@ -176,7 +177,7 @@ def _speed_fluctuation(flywheel: Flywheel, unit: UnitLoads, gas: GasLoads, speed
 
     lead = speeds.lead
     mean = f"{flywheel.mean} mean"
-    data = {
+    data: dict[str, Any] = {
         "omega": (lead + ("angle",), per_speed([r.omega for r in runs]),
                   {"units": "rad/s", "long_name": f"crank speed over the cycle ({mean} = the scene's speed)"}),
         "alpha": (lead + ("angle",), per_speed([r.alpha for r in runs]),

@@ -189,14 +189,16 @@ def _refuse_non_finite(scene: Scene, groups: dict) -> None:
     A variable over many speeds is checked through its unit-speed values
     (never multiplied out); the ω² it is scaled by is within the speed range."""
     for group, ds in groups.items():
-        for name, variable in ds.data_vars.items():
+        finite = np.isfinite if group in _NO_NAN else (lambda values: ~np.isinf(values))
+        for name in ds.data_vars:
+            # The bare Variable: a DataArray costs a construction per name and hides its lazy data.
+            variable = ds.variables[name]
             if variable.dtype.kind not in "fc":
                 continue
             unit = unit_speed_values(variable)
             if unit is None and variable.size > _CHECKED_VALUES:
                 continue
             parts = [variable.values] if unit is None else [unit, speed_independent_values(variable)]
-            finite = np.isfinite if group in _NO_NAN else (lambda values: ~np.isinf(values))
             if not all(finite(part).all() for part in parts if part is not None):
                 from .scene.schema import Problem, SceneError
 

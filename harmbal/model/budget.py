@@ -118,18 +118,7 @@ def parse_size(text: str | float) -> float:
     ValueError
         Anything else, or a size that is not positive.
     """
-    if isinstance(text, (int, float)) and not isinstance(text, bool):
-        value = float(text)
-    elif str(text).strip().lower() in _UNLIMITED:
-        return math.inf
-    else:
-        match = _SIZE.fullmatch(str(text))
-        if match is None or match[2] not in _SIZE_UNITS:
-            raise ValueError(f"not a size: {text!r} (write e.g. 8GiB, 512MiB or 4e9 bytes; none for no limit)")
-        value = float(match[1]) * _SIZE_UNITS[match[2]]
-    if not value > 0:
-        raise ValueError(f"a memory budget must be positive: {text!r}")
-    return value
+    return _parse_amount(text, _SIZE, _SIZE_UNITS, "a size", "8GiB, 512MiB or 4e9 bytes", "a memory budget")
 
 
 def parse_duration(text: str | float) -> float:
@@ -141,17 +130,24 @@ def parse_duration(text: str | float) -> float:
     ValueError
         Anything else, or a duration that is not positive.
     """
+    return _parse_amount(text, _DURATION, _DURATION_UNITS, "a duration", "600, 20min or 2h", "a time budget")
+
+
+def _parse_amount(text: str | float, pattern: re.Pattern, units: dict, kind: str, examples: str,
+                  budget: str) -> float:
+    """A number with one of ``units`` (matched by ``pattern``: number, unit), a
+    plain number, or inf for "none"/"unlimited"; positive."""
     if isinstance(text, (int, float)) and not isinstance(text, bool):
         value = float(text)
     elif str(text).strip().lower() in _UNLIMITED:
         return math.inf
     else:
-        match = _DURATION.fullmatch(str(text))
-        if match is None:
-            raise ValueError(f"not a duration: {text!r} (write e.g. 600, 20min or 2h; none for no limit)")
-        value = float(match[1]) * _DURATION_UNITS[match[2]]
+        match = pattern.fullmatch(str(text))
+        if match is None or match[2] not in units:
+            raise ValueError(f"not {kind}: {text!r} (write e.g. {examples}; none for no limit)")
+        value = float(match[1]) * units[match[2]]
     if not value > 0:
-        raise ValueError(f"a time budget must be positive: {text!r}")
+        raise ValueError(f"{budget} must be positive: {text!r}")
     return value
 
 

@@ -9,6 +9,11 @@ The public names are loaded on first use, so ``import harmbal`` stays light
 """
 
 from ._version import __version__
+from .reporting.lazy_imports import defer_when_xarray_is_imported
+
+# xarray, once something imports it, would import dask and pint (0.2-0.3 s) only to learn that no data is a dask
+# array or a pint quantity: the checks answer "no" without importing them until they are imported for real.
+defer_when_xarray_is_imported()
 
 _EXPORTS = {
     "load_scene": "scene",
@@ -50,6 +55,10 @@ _EXPORTS = {
     "clearance": "model.clearance",
     "sweep": "studies.sweep",
     "monte_carlo": "studies.sweep",
+    "search": "studies.search",
+    "mounts": "views.mounts",
+    "design_mounts": "balance.mount_design",
+    "mount_monte_carlo": "studies.mount_tolerances",
     "Normal": "studies.sweep",
     "Uniform": "studies.sweep",
     "WeightClasses": "studies.sweep",
@@ -61,7 +70,8 @@ __all__ = ["__version__", *_EXPORTS]
 #: the ``.harmbal`` accessor on Datasets and DataTrees (:mod:`harmbal.accessor`),
 #: so that ``import harmbal`` alone does not import xarray.
 _XARRAY_RESULTS = {"simulate", "order_spectrum", "stars", "verify_orders", "design", "Design", "verify", "joints",
-                   "loads", "LeverDesign", "analyse", "report", "open_archive", "clearance", "sweep", "monte_carlo"}
+                   "loads", "LeverDesign", "analyse", "report", "open_archive", "clearance", "sweep", "monte_carlo",
+                   "search", "mounts", "design_mounts", "mount_monte_carlo"}
 
 
 def __getattr__(name: str):

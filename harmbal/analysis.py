@@ -89,7 +89,9 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
         (:func:`harmbal.verify`); if it has a ``[loads]`` table, ``/loads``
         (:func:`harmbal.loads`: bearing and interface loads); if it has
         ``[[outline]]`` tables, ``/clearance`` (:func:`harmbal.clearance`:
-        the smallest distance between moving parts over a revolution).
+        the smallest distance between moving parts over a revolution); if it
+        stands on ``[[mount]]`` tables, ``/mounts`` (:func:`harmbal.mounts`:
+        statics, rigid-body modes, torque roll axis, transmitted forces).
 
     Raises
     ------
@@ -117,7 +119,19 @@ def analyse(scene: Scene, *, per_cylinder: bool = False, backend: str = "scipy")
     if ev.gas is not None:
         groups["torque"] = torque_dataset(ev, speeds, attrs, place.labels, _crank_radius(scene),
                                           flywheel=scene.flywheel)
+    if scene.mounts:
+        groups["mounts"] = _mounts(scene, values, gas_values, order_attrs, attrs)
     return _tree(scene, groups, backend)
+
+
+def _mounts(scene: Scene, values: dict, gas: dict | None, order_attrs: dict, attrs: dict):
+    """/mounts from the order phasors /orders is built of (:func:`harmbal.views.orders.unit_orders`)."""
+    from .views.mounts import excitation, mount_system, mounts_dataset, operating
+
+    assert scene.powertrain is not None  # the reader refuses [[mount]] without [powertrain]
+    loads = excitation(values, gas, int(order_attrs.get("revolutions", 1)), scene.reference_point)
+    return mounts_dataset(mount_system(scene.powertrain, scene.mounts), loads, Speeds(scene.speeds), attrs,
+                          operating(scene))
 
 
 def _crank_radius(scene: Scene) -> np.ndarray:
@@ -140,10 +154,14 @@ def _fluctuating(scene: Scene, per_cylinder: bool, backend: str):
     ev = Evaluation(unit, gas_loads(steady, unit.samples_per_rev), backend)
     speeds, place = Speeds(scene.speeds), placement(scene)
     stars = stars_dataset(ev, speeds, attributes(steady, unit.samples_per_rev), place)
-    torque = torque_dataset(ev, speeds, attributes(scene, unit.samples_per_rev, ev.gas), place.labels,
-                            _crank_radius(scene), flywheel=scene.flywheel)
-    return _tree(scene, {"scene": scene_dataset(scene), "time": time, "orders": order_spectrum(time, backend=backend),
-                         "stars": stars, "torque": torque}, backend)
+    attrs = attributes(scene, unit.samples_per_rev, ev.gas)
+    torque = torque_dataset(ev, speeds, attrs, place.labels, _crank_radius(scene), flywheel=scene.flywheel)
+    groups = {"scene": scene_dataset(scene), "time": time, "orders": order_spectrum(time, backend=backend),
+              "stars": stars, "torque": torque}
+    if scene.mounts:  # the constant-speed orders: the mounts' response is the steady one
+        values, order_attrs, gas_values = unit_orders(ev, attrs)
+        groups["mounts"] = _mounts(scene, values, gas_values, order_attrs, attrs)
+    return _tree(scene, groups, backend)
 
 
 def _tree(scene: Scene, groups: dict, backend: str):

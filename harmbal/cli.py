@@ -50,12 +50,14 @@ def _parser() -> argparse.ArgumentParser:
     loads = _add_loads_command(commands)
     _add_bench_command(commands)
     sweep = _add_sweep_command(commands)
+    mounts = _add_mounts_command(commands)
     _add_show_command(commands)
+    _search_parser(commands)
     for command in (run, star, design, check, rep, sweep):
         command.add_argument("--negligible", type=_negligible, metavar="FRACTION",
                              help="components at or below FRACTION of one cylinder's share of the load scale are "
                                   "negligible (default: the scene's [model] negligible, else 1e-3)")
-    for command in (run, star, design, check, rep, loads, sweep):
+    for command in (run, star, design, check, rep, loads, sweep, mounts):
         command.add_argument("--memory-budget", type=_budget_value("parse_size"), metavar="SIZE",
                              help="refuse work estimated to need more memory, e.g. 16GiB or none (default: "
                                   "$HARMBAL_MEMORY_BUDGET, else 4 GiB or half the available memory if less)")
@@ -175,6 +177,30 @@ def _add_loads_command(commands) -> argparse.ArgumentParser:
     return loads
 
 
+def _add_mounts_command(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal mounts`` (the powertrain on its mounts) to the subcommands."""
+    mounts = commands.add_parser(
+        "mounts",
+        help="the powertrain on its mounts: statics, rigid-body modes, torque roll axis, forces into the frame; "
+             "mount design",
+        description="Put the engine's exact shaking loads (every whole and half order, the gas torque's reaction "
+                    "included) on the rigid powertrain of [powertrain] standing on its [[mount]]s, and print the "
+                    "statics under weight and drive torque, the six rigid-body modes with their kinetic-energy "
+                    "distribution, the torque roll axis, and the largest forces each mount transmits into the frame "
+                    "over the scene's speeds (docs/mounts.md). With --design, choose the [mount_design] variables "
+                    "within their bounds, verify the result by recomputing it, and write the designed scene.")
+    mounts.add_argument("scene", type=Path, help="scene file (TOML) with [powertrain] and [[mount]] tables")
+    mounts.add_argument("-o", "--output", type=Path, help="write the analysis with /mounts to this netCDF archive")
+    mounts.add_argument("--design", type=Path, metavar="FILE.toml",
+                        help="design the mounts of [mount_design] and write the designed scene to FILE.toml")
+    mounts.add_argument("--name", help="engine.name of the designed scene (default: the input's)")
+    mounts.add_argument("--partial", action="store_true",
+                        help="with --design, write the best design found even if it misses a constraint")
+    mounts.add_argument("--backend", choices=("scipy", "numpy", "pyfftw"), default="scipy", help="FFT backend")
+    mounts.set_defaults(handler=_mounts)
+    return mounts
+
+
 def _add_bench_command(commands) -> argparse.ArgumentParser:
     """Add ``harmbal bench`` (accuracy against cost) to the subcommands."""
     from .bench import ENGINES, FAMILIES, LAMBDAS
@@ -255,6 +281,67 @@ def _add_show_command(commands) -> argparse.ArgumentParser:
     show.add_argument("archive", type=Path, help="netCDF archive written by 'harmbal run -o'")
     show.set_defaults(handler=_show)
     return show
+
+
+def _search_parser(commands) -> argparse.ArgumentParser:
+    """Add ``harmbal search`` (every crank and firing order of a layout, ranked) to the subcommands."""
+    search = commands.add_parser(
+        "search", help="search the crank throws and firing orders of a layout, ranked, with the Pareto front",
+        description="Enumerate every crank throw arrangement and firing order of a layout (symmetry classes "
+                    "once), evaluate their free forces and moments per order (co/counter), firing intervals and "
+                    "gas-torque orders with the scene's cylinder, and print the ranked candidates. The scene is "
+                    "the template: its first cylinder stands for every one (docs/search.md).")
+    search.add_argument("scene", type=Path, help="template scene file (TOML)")
+    search.add_argument("--layout", choices=("inline", "V", "boxer", "W"), default="inline", help="layout family")
+    search.add_argument("--cylinders", type=_positive_int, help="number of cylinders (default: the scene's)")
+    search.add_argument("--cycle", type=int, choices=(2, 4), help="strokes per cycle (default: the scene's)")
+    search.add_argument("--bank", type=_search_banks, metavar="DEG[,DEG...]",
+                        help="V angle [deg] (default 90), or a W's bank angles [deg]")
+    search.add_argument("--pitch", type=float, metavar="M", help="throw pitch [m] (default: the scene's)")
+    search.add_argument("--stagger", type=float, default=0.0, metavar="M",
+                        help="V/W: each bank's rod offset along the pin [m]")
+    search.add_argument("--split-pins", action="store_true", help="each cylinder its own throw (V, W, boxer)")
+    search.add_argument("--grid", type=float, metavar="DEG",
+                        help="firing slot [deg] (default: the even interval; finer admits uneven firing)")
+    search.add_argument("--first-order", choices=("total", "counter"), default="total",
+                        help="first-order objectives: the whole amplitude, or only the counter-rotating part "
+                             "(the co-rotating one is cancelled by crank counterweights)")
+    search.add_argument("--no-symmetry", action="store_true", help="keep every candidate, not one per class")
+    search.add_argument("--top", type=_positive_int, default=10, help="candidates to print (default 10)")
+    search.add_argument("--write", type=Path, metavar="FILE", help="write the candidate --pick as a scene")
+    search.add_argument("--pick", type=_positive_int, default=1, help="rank of the candidate to write (default 1)")
+    search.set_defaults(handler=_search)
+    return search
+
+
+def _search_banks(text: str) -> list[float]:
+    """``--bank``: one angle or a list of them [deg]."""
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a list of angles in degrees: {text!r}") from None
+
+
+def _search(args) -> None:
+    from .reporting.search_table import search_table
+    from .scene import SceneError
+    from .studies.search import candidate_text, search
+
+    if args.write is not None:
+        _check_output(args.write, (".toml",), "the scene to write must be a .toml file", inputs=(args.scene,))
+    scene = _load(args.scene)
+    bank = None if args.bank is None else (args.bank[0] if args.layout == "V" and len(args.bank) == 1 else
+                                           tuple(args.bank))
+    try:
+        ds = search(scene, args.layout, args.cylinders, args.cycle, bank=bank, pitch=args.pitch,
+                    stagger=args.stagger, split_pins=args.split_pins, grid=args.grid,
+                    symmetry=not args.no_symmetry, first_order=args.first_order)
+        text = candidate_text(ds, args.pick) if args.write is not None else None
+    except SceneError as exc:
+        raise _BadInput(str(exc)) from None
+    print(search_table(ds, args.top))
+    if text is not None:
+        _write_scene(args.write, text)
 
 
 def _budget_value(parser: str):
@@ -359,12 +446,13 @@ def _loads(args) -> None:
         _check_output(args.output, (".nc",), "the loads are written as a netCDF archive (.nc)", inputs=(args.scene,))
     scene = _load(args.scene)
     _budget(scene, "loads")
-    from .analysis import scene_dataset
-    from .labelled import tree
+    if args.output is None and not scene.outlines:  # the table alone: from the arrays, without xarray
+        print(_loads_table_without_datasets(scene))
+        return
     from .reporting.tables import clearance_table, loads_table
     from .views.loads import loads
 
-    groups = {"scene": scene_dataset(scene), "loads": loads(scene)}
+    groups = {"loads": loads(scene)}
     print(loads_table(groups["loads"]))
     if scene.outlines:
         from .model.clearance import clearance
@@ -372,12 +460,87 @@ def _loads(args) -> None:
         groups["clearance"] = clearance(scene)
         print()
         print(clearance_table(groups["clearance"]))
-    if args.output is not None:
+    if args.output is not None:  # the /scene group only for the archive (the table does not read it)
+        from .analysis import scene_dataset
         from .io.archive import save
+        from .labelled import tree
 
         save(tree({"title": f"harmbal loads: {scene.name}", "engine": scene.name, **_provenance(args)},
-                  groups), args.output)
+                  {"scene": scene_dataset(scene), **groups}), args.output)
         print(f"\nwrote {args.output}")
+
+
+def _loads_table_without_datasets(scene) -> str:
+    """The table of ``harmbal loads`` from the arrays the loads Dataset is
+    built of (:func:`harmbal.views.loads.load_arrays`), without importing
+    xarray."""
+    import numpy as np
+
+    from .labelled import Speeds
+    from .reporting.tables import LOAD_CONSTANTS, LOAD_LABELS, LOAD_VALUES, loads_table_of_arrays
+    from .views.loads import load_arrays
+
+    data, coords, attrs = load_arrays(scene)
+    speeds = Speeds(scene.speeds)
+
+    def at_speed(i):  # the table reads no ω² variable (Scaled), only the peaks and means per speed
+        return {name: data[name][1][i] if _leads_with_speed(data[name][0]) else data[name][1]
+                for name in LOAD_VALUES if name in data}
+
+    constants = {name: np.asarray(data[name][1]) for name in LOAD_CONSTANTS if name in data}
+    if "ramp_torque" in data:
+        constants["ramp"] = data["ramp_torque"][2]["ramp"]
+    labels = {name: np.asarray(coords[name][1]) for name in LOAD_LABELS if name in coords}
+    return loads_table_of_arrays(attrs, labels, constants, speeds.rpm, at_speed)
+
+
+def _mounts(args) -> None:
+    if args.output is not None:
+        _check_output(args.output, (".nc",), "the analysis is written as a netCDF archive (.nc)", inputs=(args.scene,))
+    if args.design is not None:
+        _check_output(args.design, (".toml",), "the design is written as a scene file (.toml)", inputs=(args.scene,))
+    scene = _load(args.scene)
+    if scene.powertrain is None or not scene.mounts:
+        raise _BadInput(f"{args.scene}: no [powertrain] and [[mount]] tables: nothing stands on mounts "
+                        "(docs/scenes.md, \"Powertrain and mounts\")")
+    if args.design is not None and scene.mount_design is None:
+        raise _BadInput(f"{args.scene}: --design needs a [mount_design] table (docs/mounts.md)")
+    _budget(scene, "mounts", output=args.output is not None)
+    from .reporting.mount_tables import mounts_table
+
+    if args.design is None:
+        from .views.mounts import mounts
+
+        print(mounts_table(mounts(scene, backend=args.backend)))
+    else:
+        _design_mounts(args, scene)
+    if args.output is not None:
+        from .analysis import analyse
+        from .io.archive import save
+
+        tree = analyse(scene, backend=args.backend)
+        tree.attrs.update(_provenance(args))
+        save(tree, args.output)
+        print(f"\nwrote {args.output}")
+
+
+def _design_mounts(args, scene) -> None:
+    """``harmbal mounts --design``: the design's table, before and after, and the scene written if it holds."""
+    from .balance.mount_design import design_mounts
+    from .reporting.mount_tables import mount_design_table, mounts_table
+
+    result = design_mounts(scene, name=args.name)
+    print(mounts_table(result.before, title=f"{scene.name}: before the design"))
+    print()
+    print(mounts_table(result.after, title=f"{scene.name}: after the design (recomputed from the designed scene)"))
+    print()
+    print(mount_design_table(result))
+    if not result.verified:
+        raise _Disagreement("the recomputed design does not reproduce the optimiser's; nothing written")
+    if not result.feasible and not args.partial:
+        raise _Disagreement("the design misses a constraint (see above); nothing written (--partial writes it "
+                            "anyway)")
+    _write_scene(args.design, result.text)
 
 
 def _order_table_without_datasets(scene, backend: str) -> str:
@@ -397,6 +560,55 @@ def _order_table_without_datasets(scene, backend: str) -> str:
     speeds = np.asarray(scene.speeds, dtype=float)
     w2 = speeds**2
     return order_table_of_arrays(attrs, speeds, lambda i: {name: w2[i] * np.asarray(v) for name, v in values.items()})
+
+
+def _inertia_alone(scene) -> bool:
+    """Whether ``analyse(scene)`` is the inertia's /time, /orders and /stars
+    alone (no gas, speed fluctuation, levers, [verify], [loads], outlines or
+    mounts): then the CLI's tables can be printed from its arrays."""
+    from .model.sampling import simulates_gas
+
+    return not (simulates_gas(scene) or "speed_fluctuation" in scene.model.effects or scene.levers
+                or scene.verify is not None or scene.loads is not None or scene.outlines or scene.mounts)
+
+
+def _stars_table_without_datasets(scene) -> tuple[str, int] | None:
+    """The stars table of ``harmbal stars`` and the highest order, from the
+    arrays of the evaluation ``analyse`` makes (a scene of
+    :func:`_inertia_alone`): the free vectors of /orders in /stars, as
+    :func:`harmbal.views.stars.with_free_vectors` puts them, without
+    importing xarray. None if a value is not finite: the Datasets' path then
+    refuses it, naming the variable."""
+    import numpy as np
+
+    from .labelled import Speeds
+    from .model.evaluate import evaluate
+    from .reporting.tables import STAR_CONSTANTS, STAR_VALUES, stars_table_of_arrays
+    from .views.evaluation import Evaluation
+    from .views.orders import unit_orders
+    from .views.stars import Scaled, free_vectors_at, placement, star_arrays
+    from .views.time import attributes
+
+    ev = Evaluation(evaluate(scene))
+    attrs = attributes(scene, ev.unit.samples_per_rev)
+    values, _, _ = unit_orders(ev, attrs)
+    place = placement(scene)
+    data, coords, star_attrs = star_arrays(ev, attrs, place, totals=(values["force"].T, values["moment"].T))
+    speeds = Speeds(scene.speeds)
+    w2 = np.atleast_1d(speeds.w2)
+    unit = {name: entry.unit if isinstance(entry, Scaled) else entry[1] for name, entry in data.items()}
+    if not all(np.isfinite(v).all() for v in (*values.values(), *unit.values()) if np.asarray(v).dtype.kind in "fc"):
+        return None
+
+    def at_speed(i):
+        out = {name: w2[i] * np.asarray(unit[name]) if isinstance(data[name], Scaled) else unit[name]
+               for name in STAR_VALUES if name in data}
+        return {**out, **free_vectors_at(values, data, w2[i])}
+
+    constants = {"order": coords["order"][1], **{name: unit[name] for name in STAR_CONSTANTS if name in unit}}
+    table = stars_table_of_arrays(star_attrs, len(place.labels), constants,
+                                  (np.atleast_1d(speeds.values), np.atleast_1d(speeds.rpm)), at_speed)
+    return table, len(constants["order"]) - 1
 
 
 def _sweep(args) -> None:
@@ -769,8 +981,7 @@ def _design(args) -> None:
     from .balance.design import Design, design
     from .balance.lever import LeverDesign, design_lever
     from .balance.solvers import DesignError
-    from .balance.verify import verify
-    from .reporting.tables import design_table, lever_design_table, verify_table
+    from .reporting.tables import design_table, lever_design_table
     from .scene.requests import LeverDesignRequest
 
     _check_output(args.output, (".toml",), "the design is written as a scene file (.toml)")
@@ -793,15 +1004,16 @@ def _design(args) -> None:
         return
     assert isinstance(result, Design)  # design() of a scene without [design.lever]
     print(design_table(result))
-    check = verify(result.scene)
+    # Verified as harmbal verify would, on the evaluation design judged the written scene by (not made twice).
+    table, check = _verify_table_without_datasets(result.scene, None, unit=result.evaluation)
     print()
-    print(verify_table(check))
+    print(table)
     for sentence in result.worsened:  # a warning, not a failure: the exit status stays the design's
         warnings.warn(sentence, stacklevel=3)  # at the caller of main(): the command's handler is main's callee
     if not result.feasible and not args.partial:
         raise _Disagreement("some targets cannot be cancelled (see above); nothing written (--partial writes "
                             "the design anyway)")
-    if check.attrs["passed"] != "yes":
+    if check["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the design; nothing written")
     _write_scene(args.output, result.text)
 
@@ -836,8 +1048,7 @@ def _write_scene(path: Path, text: str) -> None:
 def _verify(args) -> None:
     import dataclasses
 
-    from .balance.verify import VerifyError, verify
-    from .reporting.tables import verify_table
+    from .balance.verify import VerifyError
     from .scene.requests import VerifyRequest
 
     scene = _load(args.scene, args.negligible)
@@ -855,14 +1066,43 @@ def _verify(args) -> None:
     if args.tolerance is not None:
         request = dataclasses.replace(request, tolerance=args.tolerance)
     try:
-        check = verify(scene, request)
+        table, attrs = _verify_table_without_datasets(scene, request)
     except VerifyError as exc:  # e.g. elements whose loads are not finite
         raise _BadInput(str(exc)) from None
-    print(verify_table(check))
-    for sentence in check.attrs["worsened"].splitlines():  # a warning: the exit status stays the verdict's
+    print(table)
+    for sentence in attrs["worsened"].splitlines():  # a warning: the exit status stays the verdict's
         warnings.warn(sentence, stacklevel=3)  # at the caller of main(), as in _design
-    if check.attrs["passed"] != "yes":
+    if attrs["passed"] != "yes":
         raise _Disagreement("the exact model does not confirm the balancers within the tolerance")
+
+
+def _verify_table_without_datasets(scene, request, unit=None) -> tuple[str, dict]:
+    """The table of ``harmbal verify`` and the check's attributes, from the
+    arrays the verify Dataset is built of
+    (:func:`harmbal.balance.verify.verify_arrays`, ``unit`` its evaluation
+    if already made), without importing xarray."""
+    import numpy as np
+
+    from .balance.verify import verify_arrays
+    from .labelled import Speeds
+    from .reporting.tables import VERIFY_LABELS, VERIFY_VALUES, verify_table_of_arrays
+
+    data, coords, attrs = verify_arrays(scene, request, unit=unit)
+    speeds = Speeds(scene.speeds)
+
+    def at_speed(i):
+        return {name: data[name][1][i] if _leads_with_speed(data[name][0]) else data[name][1]
+                for name in VERIFY_VALUES if name in data}
+
+    labels = {name: np.asarray((data if name in data else coords)[name][1]) for name in VERIFY_LABELS
+              if name in data or name in coords}
+    return verify_table_of_arrays(attrs, labels, speeds.rpm, at_speed), attrs
+
+
+def _leads_with_speed(dims) -> bool:
+    """Whether a variable of ``dims`` (a name or a tuple of them) is over ``speed`` first."""
+    dims = (dims,) if isinstance(dims, str) else tuple(dims)
+    return dims[:1] == ("speed",)
 
 
 def _load(path: Path, negligible: float | None = None):
@@ -889,19 +1129,27 @@ class _Disagreement(Exception):
 
 
 def _stars(args) -> None:
-    from .analysis import analyse
-    from .reporting.tables import stars_table, verification_table
-    from .views.stars import verify_orders, with_free_vectors
+    from .reporting.tables import verification_table
+    from .views.stars import verify_orders
 
     if args.plot is not None:
         _check_output(args.plot, (".svg", ".png"), "--plot writes .svg or .png files")
     scene = _load(args.scene, args.negligible)
     _budget(scene, "stars")
-    tree = analyse(scene)  # the same evaluation and free vectors as harmbal run
-    ds = with_free_vectors(tree["stars"].ds, tree["orders"].ds)
-    if args.orders and max(args.orders) > ds.sizes["order"] - 1:
-        raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {ds.sizes['order'] - 1}")
-    print(stars_table(ds))
+    shortcut = _stars_table_without_datasets(scene) if args.plot is None and _inertia_alone(scene) else None
+    if shortcut is not None:
+        table, max_order = shortcut
+    else:
+        from .analysis import analyse
+        from .reporting.tables import stars_table
+        from .views.stars import with_free_vectors
+
+        tree = analyse(scene)  # the same evaluation and free vectors as harmbal run
+        ds = with_free_vectors(tree["stars"].ds, tree["orders"].ds)
+        table, max_order = stars_table(ds), ds.sizes["order"] - 1
+    if args.orders and max(args.orders) > max_order:
+        raise _BadInput(f"--orders: {max(args.orders)} is above the scene's max_order {max_order}")
+    print(table)
     if args.verify:
         check = verify_orders(scene)
         print()

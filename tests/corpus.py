@@ -215,9 +215,9 @@ NAN, INF = float("nan"), float("inf")
 
 def cases() -> list[Case]:
     """Every case, in categories: files, strings, structure, ranges, firing,
-    gas, traces, balancers and requests, work bounds, sweep arguments."""
+    gas, traces, balancers and requests, work bounds, sweep arguments, mounts."""
     return [*_files(), *_strings(), *_structure(), *_ranges(), *_firing(), *_gas(), *_traces(), *_balancers(),
-            *_work(), *_sweeps()]
+            *_work(), *_sweeps(), *_mounts()]
 
 
 def _files() -> list[Case]:
@@ -407,6 +407,46 @@ def _balancers() -> list[Case]:
              "flywheel.inertia"),
         Case("flywheel-missing", "balancers",
              edited("single-gas", model={"effects": ["reciprocating", "gas", "speed_fluctuation"]}), "model.effects"),
+    ]
+
+
+_POWERTRAIN = {"mass": "480 kg", "cg": ["-40 mm", "0 mm", "180 mm"], "products": "tensor",
+               "inertia": {"xx": "18 kg m^2", "yy": "42 kg m^2", "zz": "38 kg m^2", "xz": "-2.1 kg m^2"}}
+
+
+def mounted(count: int = 3, **edits: Any) -> Callable[[Path], Path]:
+    """inline-4 on ``count`` of three mounts ([powertrain] and [[mount]] tables), with keys set as
+    :func:`edited` sets them."""
+    mounts = [{"name": name, "position": [x, y, "0 mm"], "stiffness": ["300 N/mm", "300 N/mm", "900 N/mm"]}
+              for name, x, y in (("front left", "300 mm", "250 mm"), ("front right", "300 mm", "-250 mm"),
+                                 ("rear", "-400 mm", "0 mm"))]
+    return edited("inline-4", **{"powertrain": json.loads(json.dumps(_POWERTRAIN)), "mount": mounts[:count], **edits})
+
+
+def _mounts() -> list[Case]:
+    variable = {"mount": "rear", "stiffness": "w", "bounds": ["100 N/mm", "1000 N/mm"]}
+    return [
+        Case("mount-without-powertrain", "mounts", mounted(powertrain=_DELETE), "powertrain"),
+        Case("mount-two", "mounts", mounted(2), "mount"),
+        Case("mount-unknown-key", "mounts", mounted(mount_1___stifness=["1 N/mm"] * 3), "mount[1].stifness"),
+        Case("mount-inertia-triangle", "mounts", mounted(powertrain__inertia__xx="90 kg m^2"),
+             "powertrain.inertia.xx"),
+        Case("mount-products-unnamed", "mounts", mounted(powertrain__products=_DELETE), "powertrain.products"),
+        Case("mount-axes-parallel", "mounts", mounted(mount_1___axes={"u": [1, 0, 0], "w": [-2, 0, 0]}),
+             "mount[1].axes"),
+        Case("mount-stiffness-huge", "mounts", mounted(mount_1___stiffness=["1 N/mm", "1 N/mm", f"{HUGE} N/mm"]),
+             "mount[1].stiffness[3]"),
+        Case("mount-table-decreasing", "mounts",
+             mounted(mount_1___table={"frequency": ["50 Hz", "5 Hz"], "stiffness": [[1e5, 1e5, 1e5]] * 2}),
+             "mount[1].table.frequency"),
+        Case("mount-frequency-rpm", "mounts",
+             mounted(mount_1___table={"frequency": ["5 Hz", "800 rpm"], "stiffness": [[1e5, 1e5, 1e5]] * 2}),
+             "mount[1].table.frequency[2]"),
+        Case("mount-design-unknown-mount", "mounts",
+             mounted(mount_design={"variable": [{**variable, "mount": "raer"}]}), "mount_design.variable[1].mount"),
+        Case("mount-design-outside-bounds", "mounts",
+             mounted(mount_design={"variable": [{**variable, "bounds": ["1 N/mm", "10 N/mm"]}]}),
+             "mount_design.variable[1].bounds"),
     ]
 
 

@@ -246,9 +246,11 @@ def test_a_report_of_many_speeds_is_refused_before_any_figure(tmp_path):
 
 
 def test_a_sweep_of_many_geometries_is_refused_before_reading_them():
+    # Designed per geometry (each distinct geometry's design basis made one by one).
     scene = hb.load_scene(ENGINES / "inline-4.toml")
     with pytest.raises(hb.SceneError) as refused:
-        hb.sweep(scene, {"geometry.rod_length": np.linspace(0.14, 0.15, 300_000), "piston.mass": [0.4, 0.5]})
+        hb.sweep(scene, {"geometry.rod_length": np.linspace(0.14, 0.15, 300_000)}, design=True, orders=[1, 2],
+                 phasors=False)
     problem = refused.value.problems[0]
     assert problem.key == "geometry.rod_length" and "300000 geometries" in problem.value
     assert "each distinct geometry is read and evaluated once" in problem.rule

@@ -87,3 +87,52 @@ def test_nothing_is_deferred_when_xarray_would_not_answer_from_the_entries():
             "pycompat.array_type = lambda mod: (object,)\n"
             "print(defer_duck_array_imports(), sorted(pycompat._cached_duck_array_modules))\n")
     assert _run(code) == "[] []"
+
+
+#: The table commands and the heavy libraries their path must not import (issue 31: commands that answer fast):
+#: none of them imports dask, pint or matplotlib; ``run`` and ``stars`` without gas, verify, levers, loads,
+#: outlines or mounts, ``loads`` without outlines or an archive, ``verify`` and ``design`` (the CLI's tables from
+#: the views' arrays) not even xarray.
+NO_XARRAY = ("xarray", "pandas", "dask", "pint", "matplotlib")
+LIGHT_PATHS = [
+    (["run", "datasets/engines/inline-3.toml"], NO_XARRAY),
+    (["run", "datasets/engines/v8-cross-plane.toml"], NO_XARRAY),
+    (["run", "datasets/engines/tractor-3cyl-gas.toml"], ("dask", "pint", "matplotlib")),
+    (["stars", "datasets/engines/inline-4.toml"], NO_XARRAY),
+    (["stars", "datasets/engines/v8-cross-plane.toml"], NO_XARRAY),
+    (["stars", "datasets/engines/tractor-3cyl-gas.toml"], ("dask", "pint", "matplotlib")),
+    (["loads", "datasets/engines/inline-3.toml"], NO_XARRAY),
+    (["loads", "datasets/engines/tractor-3cyl-loads-gas.toml"], NO_XARRAY),
+    (["verify", "datasets/engines/inline-3-balanced.toml"], NO_XARRAY),
+    (["verify", "datasets/engines/inline-4-lanchester.toml"], NO_XARRAY),
+    (["design", "datasets/engines/inline-3.toml", "-o", "{tmp}/designed.toml"], NO_XARRAY),
+    (["design", "datasets/engines/inline-4.toml", "-o", "{tmp}/designed.toml"], NO_XARRAY),
+]
+
+
+@pytest.mark.parametrize(("argv", "absent"), LIGHT_PATHS, ids=lambda v: " ".join(v) if v and "/" in v[-1] else "")
+def test_a_table_command_does_not_import_what_it_does_not_use(argv, absent, tmp_path):
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    code = ("import sys, io, contextlib\n"
+            "from harmbal.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+            f"    status = main({argv!r})\n"
+            f"loaded = sorted(m for m in {absent!r} if m in sys.modules)\n"
+            "print(status, len(out.getvalue().splitlines()) > 3, loaded)")
+    assert _run(code) == "0 True []"
+
+
+def test_the_deferral_waits_for_xarray_and_then_is_in_place():
+    # import harmbal installs it without importing xarray; the first Variable then imports neither dask nor pint.
+    code = ("import sys, harmbal\n"
+            "print('xarray' in sys.modules)\n"
+            "import xarray as xr, numpy as np\n"
+            "from xarray.namedarray import pycompat\n"
+            "from harmbal.reporting.lazy_imports import _Deferred\n"
+            "print(sorted(n for n, e in pycompat._cached_duck_array_modules.items() if isinstance(e, _Deferred)))\n"
+            "xr.Dataset({'v': ('x', np.arange(3.0))}, {'x': [1, 2, 3]})\n"
+            "print(sorted(m for m in ('dask', 'pint') if m in sys.modules))")
+    lines = _run(code).splitlines()
+    assert lines[0] == "False"
+    assert {"dask", "pint"} <= set(eval(lines[1])) or not (_installed("dask") and _installed("pint"))
+    assert lines[2] == "[]"

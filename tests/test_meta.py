@@ -119,9 +119,11 @@ def test_no_import_circles():
 
 #: The functions of the views stage that read a Scene: the public API and the edge helpers that turn a
 #: scene into what the Dataset builders take (their shared attributes, the cylinders' placement) or that
-#: evaluate it (the views' evaluation, the fluctuating time domain). Every other function of the stage takes
-#: the evaluation (views.evaluation.Evaluation) or its arrays and the parameters it needs.
-VIEW_EDGE = {"attributes", "placement", "evaluation", "fluctuating_time_dataset"}
+#: evaluate it (the views' evaluation, the fluctuating time domain, the loads' arrays for the CLI's table). Every
+#: other function of the stage takes the evaluation (views.evaluation.Evaluation) or its arrays and the parameters
+#: it needs.
+VIEW_EDGE = {"attributes", "placement", "evaluation", "fluctuating_time_dataset", "operating", "load_arrays",
+             "mount_loads"}
 
 
 def test_views_below_the_public_api_do_not_take_the_scene():

@@ -173,6 +173,21 @@ def _lanchester_loads(**loads):
     return scene("inline-4-lanchester", loads={"element": [{"label": "Lanchester pair", **loads}]})
 
 
+def _mounted(first: dict | None = None, **tables) -> dict:
+    """inline-4 on three mounts, the first mount's keys updated by ``first``, tables added."""
+    mounts = [{"name": str(i), "position": [x, y, "0 mm"], "stiffness": ["300 N/mm", "300 N/mm", "900 N/mm"]}
+              for i, (x, y) in enumerate((("300 mm", "250 mm"), ("300 mm", "-250 mm"), ("-400 mm", "0 mm")))]
+    mounts[0].update(first or {})
+    powertrain = {"mass": "480 kg", "cg": ["0 mm", "0 mm", "180 mm"],
+                  "inertia": {"xx": "18 kg m^2", "yy": "42 kg m^2", "zz": "38 kg m^2"}}
+    return scene("inline-4", powertrain={**powertrain, **tables.pop("powertrain", {})}, mount=mounts, **tables)
+
+
+def _mount_design(**keys) -> dict:
+    return _mounted(mount_design={"variable": [{"mount": "0", "stiffness": "w", "bounds": ["1 N/mm", "1 kN/mm"]}],
+                                  **keys})
+
+
 #: Per dimension: a scene with a key of that dimension set to the value (SI), and that key's path.
 DIMENSION_KEYS = {
     "length": lambda v: scene("inline-4", **{"cylinder[1].axial_position": v}),
@@ -190,11 +205,17 @@ DIMENSION_KEYS = {
     "density": lambda v: scene("inline-4", counterweight=[{"angle": "180 deg", "density": v, "thickness": "20 mm",
                                                            "shape": [{"kind": "circle", "radius": "50 mm",
                                                                       "centre": ["60 mm", "0 mm"]}]}]),
+    "stiffness": lambda v: _mounted({"stiffness": [v, "1 N/mm", "1 N/mm"]}),
+    "damping": lambda v: _mounted({"damping": [v, 0.0, 0.0]}),
+    "acceleration": lambda v: _mounted(powertrain={"gravity": [0.0, 0.0, v]}),
+    "frequency": lambda v: _mount_design(frequency_band=[0.0, v]),
 }
 DIMENSION_PATHS = {"length": "cylinder[1].axial_position", "mass": "piston.mass",
                    "angle": "crankshaft_unbalance[1].angle", "speed": "engine.speed", "inertia": "rod.inertia",
                    "unbalance": "crankshaft_unbalance[1].unbalance", "force": "loads.static_load[1].force[1]",
-                   "moment": "flywheel.load_torque", "time": "loads.ramp.time", "density": "counterweight[1].density"}
+                   "moment": "flywheel.load_torque", "time": "loads.ramp.time", "density": "counterweight[1].density",
+                   "stiffness": "mount[1].stiffness[1]", "damping": "mount[1].damping[1]",
+                   "acceleration": "powertrain.gravity[3]", "frequency": "mount_design.frequency_band[2]"}
 
 
 @pytest.mark.parametrize("dimension", sorted(DIMENSION_KEYS))
@@ -279,6 +300,8 @@ KEY_CASES = {
                       _bar),
     "imep": (lambda v: scene(GAS, **{"gas.combustion.peak_pressure": None, "gas.combustion.imep": v}),
              "gas.combustion.imep", _bar),
+    "loss_factor": (lambda v: _mounted({"loss_factor": v}), "mount[1].loss_factor", float),
+    "decoupling": (lambda v: _mount_design(decoupling=v), "mount_design.decoupling", float),
 }
 
 

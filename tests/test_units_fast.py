@@ -46,6 +46,10 @@ def oracle(text: str, dimension: str | None = None):
                                     for name, _ in quantity.unit_items()):
             results[d] = ("error", "ambiguous")
             continue
+        if d == "frequency" and any(name.startswith("revolutions_per_") or not ureg.get_dimensionality(name)
+                                    for name, _ in quantity.unit_items()):
+            results[d] = ("error", "an angle per time")
+            continue
         try:
             results[d] = float(quantity.to(SI_UNITS[d] or "dimensionless").magnitude)
         except pint.DimensionalityError:
@@ -81,7 +85,7 @@ def scene_strings() -> set[str]:
         elif isinstance(value, list):
             for v in value:
                 walk(v)
-        elif isinstance(value, str):
+        elif isinstance(value, str) and value[:1] in "-+.0123456789":  # a quantity, not a name ("u", an axis)
             found.add(value)
 
     for path in sorted((ROOT / "datasets" / "engines").glob("*.toml")):

@@ -31,6 +31,7 @@ Two refinements:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import tomllib
 from dataclasses import dataclass
@@ -70,6 +71,7 @@ from .sanity import check_conditioning, size_error
 from .solvers import LP_TOLERANCES, BalancerDesign, DesignError
 from .verify import (
     CHECKED_ORDER,
+    WORSENED_VALUES,
     checked_orders,
     describe_component,
     engine_scales,
@@ -77,7 +79,8 @@ from .verify import (
     residual_spectra,
     spectrum_components,
     verify_samples,
-    worsened_messages,
+    worsened_rows_of_arrays,
+    worsened_sentences,
 )
 
 #: A Lanchester pair's two unbalances are written as one pair (one size, the
@@ -110,9 +113,20 @@ class Design(BalancerDesign):
     scene: Scene
     text: str
     elements: tuple[Shaft, ...]
-    dataset: object
+    arrays: tuple[dict, dict, dict]
     messages: tuple[str, ...]
     worsened: tuple[str, ...] = ()
+    #: The written scene's exact model on verify's samples, as design judged it (for verify to reuse).
+    evaluation: Any = dataclasses.field(default=None, repr=False, compare=False)
+
+    @functools.cached_property
+    def dataset(self):
+        """The Dataset of :attr:`arrays` (its variables, coordinates and
+        attributes), built on first use: a table needs only the arrays."""
+        import xarray as xr
+
+        data, coords, attrs = self.arrays
+        return xr.Dataset(data, coords, dict(attrs))
 
     @property
     def feasible(self) -> bool:
@@ -255,8 +269,6 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     on the written scene as :func:`harmbal.verify` evaluates it: what design
     calls cancelled verifies as zero.
     """
-    import xarray as xr
-
     request = request or scene.design
     if isinstance(request, LeverDesignRequest):
         from .lever import design_lever
@@ -287,8 +299,9 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
     messages += _height_hints(request, values, predicted, ok, plan.frame, w2,
                               ZERO_RTOL * plan.zero_scales["roll"])
     messages += _bound_messages(request, values)
-    dataset = xr.Dataset({**_design_variables(request, plan, before, predicted, ok, values, w2),
-                          **_made_worse(plan, designed, unit)}, _design_coords(scene, request, plan), {
+    data = {**_design_variables(request, plan, before, predicted, ok, values, w2), **_made_worse(plan, designed, unit)}
+    coords = _design_coords(scene, request, plan)
+    attrs = {
         "title": f"harmbal balancer design: {scene.name}",
         "engine": scene.name,
         "objective": request.objective,
@@ -298,11 +311,12 @@ def design(scene: Scene, request: DesignRequest | LeverDesignRequest | None = No
         "blanks": "\n".join(_blank_note(label, sized) for label, sized in blanks.items()),
         "negligible": scene.model.negligible,
         "zero_rtol": ZERO_RTOL,
-    })
-    worsened = worsened_messages(dataset, by="the designed elements")
-    dataset.attrs["worsened"] = "\n".join(worsened)
-    return Design(scene=designed, text=text, elements=elements, dataset=dataset, messages=tuple(messages),
-                  worsened=tuple(worsened))
+    }
+    checked = {name: np.asarray((data if name in data else coords)[name][1]) for name in WORSENED_VALUES}
+    worsened = worsened_sentences(worsened_rows_of_arrays(checked), by="the designed elements")
+    attrs["worsened"] = "\n".join(worsened)
+    return Design(scene=designed, text=text, elements=elements, arrays=(data, coords, attrs), messages=tuple(messages),
+                  worsened=tuple(worsened), evaluation=unit)
 
 
 def _planned_and_solved(scene: Scene, request: DesignRequest) -> tuple[_Plan, _Solution]:

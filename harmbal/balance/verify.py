@@ -186,28 +186,45 @@ def checked_orders(max_order: int) -> np.ndarray:
     return np.arange(1, max_order + 1)
 
 
+#: What :func:`worsened_rows_of_arrays` reads: the check's variables and the labels of its rows.
+WORSENED_VALUES = ("worsened", "amplitude_before", "amplitude_after", "rpm", CHECKED_ORDER, "component",
+                   "component_units")
+
+
 def worsened_rows(ds):
     """(order, component, before, after, units, rpm) of every component made
     worse in a design or verify Dataset, at the first speed where it is."""
     if "worsened" not in ds:  # an archive written before the check existed
         return
-    flags = ds["worsened"].values
+    yield from worsened_rows_of_arrays({name: ds[name].values for name in WORSENED_VALUES})
+
+
+def worsened_rows_of_arrays(values: dict):
+    """:func:`worsened_rows` from plain arrays: the :data:`WORSENED_VALUES`
+    as in the Dataset (``rpm`` one value per speed, or a single one)."""
+    flags = values["worsened"]
     shape = (-1,) + flags.shape[-2:]
     flags = flags.reshape(shape)  # (speed, checked_order, component)
-    was, now = (ds[name].values.reshape(shape) for name in ("amplitude_before", "amplitude_after"))
-    rpm = np.atleast_1d(ds["rpm"].values)
+    was, now = (values[name].reshape(shape) for name in ("amplitude_before", "amplitude_after"))
+    rpm = np.atleast_1d(values["rpm"])
     for i, j in zip(*np.nonzero(flags.any(axis=0))):
         s = int(np.argmax(flags[:, i, j]))
-        yield (int(ds[CHECKED_ORDER].values[i]), str(ds["component"].values[j]), float(was[s, i, j]),
-               float(now[s, i, j]), str(ds["component_units"].values[j]), float(rpm[s]))
+        yield (int(values[CHECKED_ORDER][i]), str(values["component"][j]), float(was[s, i, j]),
+               float(now[s, i, j]), str(values["component_units"][j]), float(rpm[s]))
 
 
 def worsened_messages(ds, by: str = "the balancer elements") -> list[str]:
     """One sentence per component made worse in a design or verify Dataset,
     e.g. ``order 1 roll moment made worse by the designed elements: 6.3788 →
     67.612 N m at 6400 rpm (not targeted)``."""
+    return worsened_sentences(worsened_rows(ds), by)
+
+
+def worsened_sentences(rows, by: str = "the balancer elements") -> list[str]:
+    """:func:`worsened_messages` of the rows of :func:`worsened_rows` (or
+    :func:`worsened_rows_of_arrays`)."""
     return [f"{describe_component(k, name)} made worse by {by}: {was:.5g} → {now:.5g} {units} at {rpm:.6g} rpm "
-            "(not targeted)" for k, name, was, now, units, rpm in worsened_rows(ds)]
+            "(not targeted)" for k, name, was, now, units, rpm in rows]
 
 
 def targeted_orders(max_order: int, orders, targeted: np.ndarray) -> np.ndarray:
@@ -294,11 +311,22 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     level :func:`harmbal.design` calls a target cancelled by. It never grows
     with the elements' own loads.
     """
+    data, coords, attrs = verify_arrays(scene, request, backend=backend)
+    return dataset(data, {**Speeds(scene.speeds).coords(), **coords}, attrs)
+
+
+def verify_arrays(scene: Scene, request: VerifyRequest | None = None, *, backend: str = "scipy", unit=None):
+    """:func:`verify` on plain arrays: its entries ``(dims, values, attrs)``,
+    its coordinates besides the speeds' and its attributes (``worsened``
+    among them), in the Dataset's order. ``unit``: the scene's evaluation on
+    :func:`verify_samples`, if already made (``Design.evaluation``: the
+    designed scene as design judged it)."""
     request = _verify_request(scene, request)
     own = choose_samples(scene)
     samples = max(own, PEAK_SAMPLES)  # as verify_samples
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite loads are refused just below
-        unit = evaluate(scene, samples)  # one evaluation: "before" is the same loads without the elements
+        # One evaluation: "before" is the same loads without the elements.
+        unit = evaluate(scene, samples) if unit is None else unit
         engine = engine_scales(scene, unit if samples == own else None)  # the scene's sampling, as design's
         after, before = np.stack(unit.total()), np.stack(unit.total(elements=False))  # (force/moment, axis, angle)
         kmax = scene.sampling.max_order  # every order is checked for components made worse
@@ -310,16 +338,18 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
     _check_finite(scene, (residuals.exact, residuals.tolerance, residuals.difference))
     data = {**_phasor_variables(residuals, speeds.lead),
             **_peak_variables(engine, (after, before), spectra[..., orders], speeds)}
-    coords = speeds.coords()
-    coords.update({
+    coords = {
         "order": ("order", np.array(orders), {}),
         "component": ("component", [n for n, _ in COMPONENTS], {}),
         "component_units": ("component", ["N" if g == "force" else "N m" for _, g in COMPONENTS], {}),
         "axis": ("axis", ["x", "y", "z"], {"long_name": "engine axis"}),
         CHECKED_ORDER: (CHECKED_ORDER, checked_orders(kmax), {"long_name": "order compared for components made worse"}),
-    })
+    }
     ok = bool(residuals.passed.all())
-    check = dataset(data, coords, {
+    labels = {"rpm": speeds.rpm, **{name: np.asarray(coords[name][1]) for name in WORSENED_VALUES if name in coords}}
+    worsened = worsened_sentences(worsened_rows_of_arrays({**labels, **{name: data[name][1] for name in
+                                                                         WORSENED_VALUES if name in data}}))
+    return data, coords, {
         "title": f"harmbal verification of balancer elements: {scene.name}",
         "engine": scene.name,
         "samples_per_rev": samples,
@@ -330,10 +360,8 @@ def verify(scene: Scene, request: VerifyRequest | None = None, *, backend: str =
         "passed": "yes" if ok else "no",
         "negligible": scene.model.negligible,
         "zero_rtol": ZERO_RTOL,
-        "worsened": "",
-    })
-    check.attrs["worsened"] = "\n".join(worsened_messages(check))
-    return check
+        "worsened": "\n".join(worsened),
+    }
 
 
 def _verify_request(scene: Scene, request: VerifyRequest | None) -> VerifyRequest:

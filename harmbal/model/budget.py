@@ -95,6 +95,10 @@ _VARIANT_SECONDS = 1.5e-6
 _PEAK_SECONDS = 1.2e-7
 _GEOMETRY_BYTES = 40_000.0
 _GEOMETRY_SECONDS = 2.5e-3
+# A geometry of field keys, evaluated in array passes (harmbal.studies.geometry): its phasors if the plan keeps
+# them (eager) and its share of the passes' time; a block evaluating its own holds only the block's.
+_VECTOR_GEOMETRY_BYTES = 10_000.0
+_VECTOR_GEOMETRY_SECONDS = 2e-5
 _TYPED_VALUE = 100.0
 
 _LIMITS: contextvars.ContextVar = contextvars.ContextVar("harmbal_budget", default=(None, None))
@@ -382,7 +386,7 @@ def _loads_terms(scene: Scene, size: _Sizes) -> list[Term]:
 
 
 #: What each command computes: the parts of :func:`estimate`.
-COMMANDS = ("evaluate", "analyse", "run", "stars", "report", "verify", "design", "loads", "sweep")
+COMMANDS = ("evaluate", "analyse", "run", "stars", "report", "verify", "design", "loads", "sweep", "mounts")
 
 
 def estimate(scene: Scene, command: str = "analyse", *, output: bool = False, analysed: bool = False,
@@ -454,16 +458,37 @@ def _command_terms(scene: Scene, size: _Sizes, command: str, output: bool, analy
                   _speed_term(size, ["verify"])]
     if scene.loads is not None and command not in ("verify", "design"):
         terms += _loads_terms(scene, size)
+    if scene.mounts and command not in ("verify", "design", "stars"):
+        terms.append(_mounts_term(size, len(scene.mounts), len(scene.powertrain.points) if scene.powertrain else 0))
     return terms
+
+
+#: The mounts' forced response per speed and order [bytes]: the 6x6 dynamic stiffness, its solve, the
+#: response, each mount's complex stiffness and force (three axes, with their co/counter split and
+#: amplitude) and each point's motion, complex, with a factor for the temporaries.
+_MOUNTS_PER_SPEED_ORDER = 16.0 * 3 * (36 + 6)
+_MOUNT_PER_SPEED_ORDER = 16.0 * 4 * 3 * 3
+_MOUNTS_SECONDS = 2e-6  # per speed and order (batched 6x6 solves and einsums)
+
+
+def _mounts_term(size: _Sizes, mounts: int, points: int) -> Term:
+    """The forced response of the powertrain on its mounts at every speed and order."""
+    orders = size.orders * size.revolutions
+    count = size.speeds * orders
+    memory = count * (_MOUNTS_PER_SPEED_ORDER + _MOUNT_PER_SPEED_ORDER * (mounts + points))
+    return Term("engine.speed", f"{size.speeds} speeds", f"the mounts' response at {size.speeds} speeds × {orders} "
+                "orders", memory, _MOUNTS_SECONDS * count)
 
 
 def sweep_terms(scene: Scene, size: _Sizes | None = None, *, variants: int = 1, key: str = "variants",
                 value: Any = None, geometries: int = 1, geometry_key: str = "", orders: int = 2,
                 phasors: bool = True, peaks: bool = False, peak_samples: int = 360, design: bool = False,
-                chunks: int | None = None, values: int = 0, typed: int = 0, output: bool = False) -> list[Term]:
+                chunks: int | None = None, values: int = 0, typed: int = 0, output: bool = False,
+                vectorised: bool = False, eager: bool = True) -> list[Term]:
     """The parts of a sweep's cost: its ``variants`` (``key``: the option or
     scene key that sets their number, with ``value``), its distinct
-    ``geometries`` (read and evaluated one by one, ``geometry_key``), the
+    ``geometries`` (read and evaluated one by one, ``geometry_key``; or,
+    ``vectorised``, in array passes, kept by the plan if ``eager``), the
     ``orders`` kept, ``phasors``, ``peaks`` over ``peak_samples`` angles,
     ``design``; with ``chunks`` (dask) only a few chunks are held at once;
     ``values``: the keys' values held (``typed`` of them unit strings);
@@ -479,9 +504,11 @@ def sweep_terms(scene: Scene, size: _Sizes | None = None, *, variants: int = 1, 
     value = f"{variants} variants" if value is None else value
     fewer = ("use fewer variants or smaller chunks" if chunks else "use fewer variants, or evaluate them in chunks "
              "(chunks=N; --chunks N; needs harmbal[dask])")
+    per_geometry = ((_VECTOR_GEOMETRY_BYTES * eager, _VECTOR_GEOMETRY_SECONDS) if vectorised
+                    else (_GEOMETRY_BYTES, _GEOMETRY_SECONDS))
     terms = [Term(key, value, what, memory, seconds, fewer),
              Term(geometry_key or key, f"{geometries} geometries", f"{geometries} distinct geometries read and "
-                  "evaluated", _GEOMETRY_BYTES * geometries, _GEOMETRY_SECONDS * geometries,
+                  "evaluated", per_geometry[0] * geometries, per_geometry[1] * geometries,
                   "give the geometry keys fewer values (each distinct geometry is read and evaluated once, chunks "
                   "or not)"),
              _grid_term(size, size.samples, _PER_CYLINDER_SAMPLE, "the nominal scene"),

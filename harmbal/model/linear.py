@@ -12,6 +12,8 @@ in those masses: Σ_j value_j × (load per unit of property j). A design sweep
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..scene import Model
@@ -23,8 +25,43 @@ from .kinematics import crank_pin, slider_crank
 PROPERTIES = ("piston_mass", "rod_mass", "rod_inertia")
 
 
-def _column(values) -> np.ndarray:
-    return np.asarray(values, dtype=float)[:, None]
+@dataclass(frozen=True)
+class CylinderGeometry:
+    """What fixes a cylinder's loads per unit mass, as arrays that broadcast
+    against the crank angles ψ (one row per cylinder, or per variant and
+    cylinder: the rows of a block of geometry variants are evaluated in one
+    array pass).
+
+    Attributes
+    ----------
+    crank_radius, rod_length : ndarray
+        r, l [m].
+    offset : ndarray
+        Total offset of the piston-pin path from the crank axis [m]
+        (pin offset + cylinder offset).
+    piston_lateral : ndarray
+        The piston CG's offset across the pin path [m].
+    rod_cg, rod_lateral : ndarray
+        The rod CG's distance from the big end along the rod axis and its
+        distance from that axis [m].
+    """
+
+    crank_radius: np.ndarray
+    rod_length: np.ndarray
+    offset: np.ndarray
+    piston_lateral: np.ndarray
+    rod_cg: np.ndarray
+    rod_lateral: np.ndarray
+
+    @classmethod
+    def of(cls, cylinders) -> CylinderGeometry:
+        """Columns (cylinder, 1) of a sequence of :class:`~harmbal.scene.Cylinder`."""
+        def column(values) -> np.ndarray:
+            return np.asarray(values, dtype=float)[:, None]
+
+        return cls(column([c.crank_radius for c in cylinders]), column([c.rod_length for c in cylinders]),
+                   column([c.offset for c in cylinders]), column([c.piston.cg_lateral for c in cylinders]),
+                   column([c.rod.cg_from_big_end for c in cylinders]), column([c.rod.cg_lateral for c in cylinders]))
 
 
 def planar_basis(model: Model, cylinders, psi: np.ndarray) -> np.ndarray | None:
@@ -34,8 +71,10 @@ def planar_basis(model: Model, cylinders, psi: np.ndarray) -> np.ndarray | None:
     ----------
     model : Model
         The scene's effects and model options (as :func:`~.evaluate.planar_loads`).
-    cylinders : sequence of Cylinder
-        Geometry of each row of ``psi``; their masses are not read.
+    cylinders : sequence of Cylinder or CylinderGeometry
+        Geometry of each row of ``psi`` (their masses are not read), or
+        the geometry as columns (:class:`CylinderGeometry`): a block of
+        geometry variants is then one array pass.
     psi : ndarray
         Local crank angles ψ [rad], shape (cylinder, angle).
 
@@ -52,38 +91,57 @@ def planar_basis(model: Model, cylinders, psi: np.ndarray) -> np.ndarray | None:
     effects = model.effects
     if not effects & {"reciprocating", "rotating", "rod_inertia"}:
         return None
-    r = _column([c.crank_radius for c in cylinders])
-    l = _column([c.rod_length for c in cylinders])
-    rod_cg = _column([c.rod.cg_from_big_end for c in cylinders])
+    g = cylinders if isinstance(cylinders, CylinderGeometry) else CylinderGeometry.of(cylinders)
+    r, l, rod_cg = g.crank_radius, g.rod_length, g.rod_cg
     small_end = rod_cg / l  # the rod's share at the piston pin, per kg of rod
-    shape = np.shape(psi)
-    zero = loads.PlanarLoad(*(np.zeros(shape),) * 5)
-    piston = rod = inertia = zero
-
-    def add(p, q, scale=1.0):
-        return loads.PlanarLoad(*(a + scale * b for a, b in zip(
-            (p.force_c, p.force_n, p.roll, p.power, p.energy), (q.force_c, q.force_n, q.roll, q.power, q.energy))))
-
+    # ψ may be one row for every geometry: the loads broadcast to (row, angle), the trigonometry stays one row.
+    shape = np.broadcast_shapes(np.shape(psi), np.shape(r))
+    sums = [_Sum(), _Sum(), _Sum()]  # per property
     kin = None
     if effects & {"reciprocating", "rod_inertia"}:
         series = model.series_harmonics if model.piston == "series" else None
-        kin = slider_crank(psi, r, l, _column([c.offset for c in cylinders]), series)
+        kin = slider_crank(psi, r, l, g.offset, series)
     if "reciprocating" in effects:
         assert kin is not None  # made above for these effects
-        piston = add(piston, loads.reciprocating(kin, 1.0, _column([c.piston.cg_lateral for c in cylinders]), 0.0))
+        on_axis = loads.reciprocating(kin, 1.0, 0.0, 0.0)
+        # The piston's lateral CG changes its roll moment only: the same load where every piston is on its pin axis.
+        sums[0].add(loads.reciprocating(kin, 1.0, g.piston_lateral, 0.0) if np.any(g.piston_lateral) else on_axis)
         # 1 kg on the pin axis (no lateral CG), times the rod's share there.
-        rod = add(rod, loads.reciprocating(kin, 1.0, 0.0, 0.0), small_end)
+        sums[1].add(on_axis, small_end)
     if "rotating" in effects:
         pin, _, _ = crank_pin(psi, r)
-        rod = add(rod, loads.rotating_rod(pin, 1.0), 1.0 - small_end)
+        sums[1].add(loads.rotating_rod(pin, 1.0), 1.0 - small_end)
     if "rod_inertia" in effects and model.rod != "two_point":
-        lateral = _column([c.rod.cg_lateral for c in cylinders])
+        lateral = g.rod_lateral
         off_axis = model.rod == "rigid" and bool(np.any(lateral))
         assert kin is not None
-        rod = add(rod, loads.rod_inertia(kin, 1.0, rod_cg, lateral, 0.0, l, off_axis))
-        inertia = add(inertia, loads.rod_inertia(kin, 0.0, rod_cg, lateral, 1.0, l, False))
-    basis = []
-    for part in (piston, rod, inertia):
-        roll = part.roll + part.power if "mass_torque" in effects else part.roll
-        basis.append(np.stack([part.force_c, part.force_n, roll]))
-    return np.stack(basis)
+        sums[1].add(loads.rod_inertia(kin, 1.0, rod_cg, lateral, 0.0, l, off_axis))
+        sums[2].add(loads.rod_inertia(kin, 0.0, rod_cg, lateral, 1.0, l, False))
+    basis = np.zeros((len(PROPERTIES), 3) + shape)
+    for part, total in zip(basis, sums):
+        total.into(part, "mass_torque" in effects)
+    return basis
+
+
+class _Sum:
+    """A sum of planar loads (times a factor each), of the parts the basis
+    needs: the forces, the roll moment and the power (the drive torque's
+    reaction); the first term is taken as it is, not added to zeros."""
+
+    def __init__(self) -> None:
+        self.parts: list[np.ndarray | None] = [None] * 4
+
+    def add(self, load: loads.PlanarLoad, scale=None) -> None:
+        for i, values in enumerate((load.force_c, load.force_n, load.roll, load.power)):
+            term = values if scale is None else scale * values
+            self.parts[i] = term if self.parts[i] is None else self.parts[i] + term
+
+    def into(self, out: np.ndarray, mass_torque: bool) -> None:
+        """Write the force along and across the axis and the roll moment (with the power if ``mass_torque``) into
+        ``out`` (3, row, angle)."""
+        force_c, force_n, roll, power = self.parts
+        if roll is not None and mass_torque:
+            roll = roll + power
+        for i, values in enumerate((force_c, force_n, roll)):
+            if values is not None:
+                out[i] = values

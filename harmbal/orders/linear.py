@@ -16,20 +16,30 @@ they agree with the single-scene analysis to round-off.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..model.balancers import shaft_amplitudes, shaft_phasors
+from ..model.balancers import shaft_phasors
 from ..model.evaluate import moment_about
-from ..model.linear import PROPERTIES, planar_basis
-from ..model.sampling import body_decay_rates, choose_samples
+from ..model.kinematics import decay_rate
+from ..model.linear import PROPERTIES, CylinderGeometry, planar_basis
+from ..model.sampling import body_decay_rates, inertia_samples
 from ..scene import Scene
-from ..scene.elements import Shaft, ShaftUnbalance
 from .spectrum import phasors
 
-#: Cylinder fields that fix a cylinder's loads per unit mass (its geometry); the masses are slots.
-_GEOMETRY = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset")
+#: The geometry of a cylinder as :func:`geometry_fields` gives it (attribute paths of a Cylinder): what a
+#: block of geometry variants varies along its leading axis.
+CYLINDER_FIELDS = ("throw", "bank", "x", "crank_radius", "rod_length", "pin_offset", "cylinder_offset",
+                   "piston.cg_axial", "piston.cg_lateral", "rod.cg_from_big_end", "rod.cg_lateral")
+#: The geometry of a static unbalance (its size is a slot).
+UNBALANCE_FIELDS = ("angle", "x")
+#: The cylinder fields that fix its spectrum per unit mass (cylinders equal in these share one spectrum).
+_SPECTRUM = ("crank_radius", "rod_length", "pin_offset", "cylinder_offset", "piston.cg_lateral",
+             "rod.cg_from_big_end", "rod.cg_lateral")
+#: Geometries evaluated in one array pass (bounds the kinematics' temporaries: ~40 arrays of this × samples).
+GEOMETRY_BLOCK = 2048
 
 
 @dataclass(frozen=True)
@@ -53,6 +63,110 @@ class LinearPhasors:
     constant_force: np.ndarray
     constant_moment: np.ndarray
     samples_per_rev: int
+
+
+@dataclass(frozen=True)
+class GeometryPhasors:
+    """:class:`LinearPhasors` of many geometries of one scene, every array with
+    a leading ``geometry`` axis: ``force``/``moment`` (geometry, slot, axis,
+    order), ``constant_force``/``constant_moment`` (geometry, axis, order),
+    ``samples_per_rev`` (geometry,). ``values`` are the scene's slot values
+    (a geometry moves no slot). ``orders``: the orders kept along the last
+    axis (None: all, 0 … max_order). ``phasors[g]`` is the g-th geometry's
+    :class:`LinearPhasors` (of those orders)."""
+
+    slots: tuple[str, ...]
+    values: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    constant_force: np.ndarray
+    constant_moment: np.ndarray
+    samples_per_rev: np.ndarray
+    orders: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.force)
+
+    def __getitem__(self, g: int) -> LinearPhasors:
+        return LinearPhasors(self.slots, self.values, self.force[g], self.moment[g], self.constant_force[g],
+                             self.constant_moment[g], int(self.samples_per_rev[g]))
+
+    @classmethod
+    def stack(cls, bases: list[LinearPhasors]) -> GeometryPhasors:
+        """The geometries of ``bases`` (each with its own slot values: those of the first are kept)."""
+        return cls(bases[0].slots, bases[0].values, np.stack([b.force for b in bases]),
+                   np.stack([b.moment for b in bases]), np.stack([b.constant_force for b in bases]),
+                   np.stack([b.constant_moment for b in bases]), np.array([b.samples_per_rev for b in bases]))
+
+    def take(self, geometries: np.ndarray, orders: np.ndarray | None = None) -> GeometryPhasors:
+        """The geometries ``geometries`` (indices) alone, and only ``orders`` of them if given."""
+        def part(values: np.ndarray) -> np.ndarray:
+            return values[geometries] if orders is None else values[geometries][..., orders]
+
+        return GeometryPhasors(self.slots, self.values, part(self.force), part(self.moment),
+                               part(self.constant_force), part(self.constant_moment), self.samples_per_rev[geometries],
+                               self.orders if orders is None else self.kept()[orders])
+
+    def kept(self) -> np.ndarray:
+        """The orders along the last axis."""
+        return np.arange(self.force.shape[-1]) if self.orders is None else self.orders
+
+    def positions(self, orders: np.ndarray) -> np.ndarray:
+        """Where ``orders`` (among those kept) lie along the last axis."""
+        return np.asarray(orders) if self.orders is None else np.searchsorted(self.orders, orders)
+
+    def scaled(self, factor: float) -> GeometryPhasors:
+        """The phasors times ``factor`` (ω² of a speed)."""
+        return replace(self, force=factor * self.force, moment=factor * self.moment,
+                       constant_force=factor * self.constant_force, constant_moment=factor * self.constant_moment)
+
+
+def _attribute(owner, path: str) -> float:
+    for name in path.split("."):
+        owner = getattr(owner, name)
+    return owner
+
+
+def geometry_fields(scene: Scene) -> tuple[tuple[str, ...], np.ndarray]:
+    """Names and values of a scene's geometry fields: every cylinder's
+    :data:`CYLINDER_FIELDS` (``cylinder[i].rod_length``), each unbalance's
+    angle and axial position (``cylinder[i].throw_unbalance[j].angle``,
+    ``crankshaft_unbalance[j].x``; a throw unbalance's angle relative to its
+    throw, positions absolute) and ``reference_point[1…3]`` [m, rad].
+    :func:`geometry_phasors` evaluates many rows of them at once;
+    :func:`with_geometry_fields` writes a row into the scene."""
+    names, values = [], []
+    for i, c in enumerate(scene.cylinders, start=1):
+        for field in CYLINDER_FIELDS:
+            names.append(f"cylinder[{i}].{field}")
+            values.append(_attribute(c, field))
+        for j, u in enumerate(c.throw_unbalances, start=1):
+            names += [f"cylinder[{i}].throw_unbalance[{j}].{f}" for f in UNBALANCE_FIELDS]
+            values += [u.angle, u.x]
+    for j, u in enumerate(scene.crankshaft_unbalances, start=1):
+        names += [f"crankshaft_unbalance[{j}].{f}" for f in UNBALANCE_FIELDS]
+        values += [u.angle, u.x]
+    names += [f"reference_point[{k}]" for k in (1, 2, 3)]
+    values += list(scene.reference_point)
+    return tuple(names), np.array(values, dtype=float)
+
+
+def with_geometry_fields(scene: Scene, values: np.ndarray) -> Scene:
+    """``scene`` with its geometry fields (:func:`geometry_fields`, in that order) set to ``values``."""
+    it = iter(np.asarray(values, dtype=float).tolist())
+    cylinders = []
+    for c in scene.cylinders:
+        own = {field: next(it) for field in CYLINDER_FIELDS}
+        unbalances = tuple(replace(u, angle=next(it), x=next(it)) for u in c.throw_unbalances)
+        cylinders.append(replace(
+            c, throw=own["throw"], bank=own["bank"], x=own["x"], crank_radius=own["crank_radius"],
+            rod_length=own["rod_length"], pin_offset=own["pin_offset"], cylinder_offset=own["cylinder_offset"],
+            piston=replace(c.piston, cg_axial=own["piston.cg_axial"], cg_lateral=own["piston.cg_lateral"]),
+            rod=replace(c.rod, cg_from_big_end=own["rod.cg_from_big_end"], cg_lateral=own["rod.cg_lateral"]),
+            throw_unbalances=unbalances))
+    crankshaft = tuple(replace(u, angle=next(it), x=next(it)) for u in scene.crankshaft_unbalances)
+    reference = (next(it), next(it), next(it))
+    return replace(scene, cylinders=tuple(cylinders), crankshaft_unbalances=crankshaft, reference_point=reference)
 
 
 def slot_values(scene: Scene) -> tuple[tuple[str, ...], np.ndarray]:
@@ -101,57 +215,212 @@ def linear_phasors(scene: Scene, samples_per_rev: int | None = None, backend: st
     Returns
     -------
     LinearPhasors
+        The one geometry of :func:`geometry_phasors` of the scene's own fields.
     """
-    n = samples_per_rev or choose_samples(scene, body_decay_rates(scene))
-    kmax, sense, cyls = scene.sampling.max_order, scene.sense, scene.cylinders
-    order = np.arange(kmax + 1)
+    n = samples_per_rev or inertia_samples(scene, body_decay_rates(scene))
+    return geometry_phasors(scene, geometry_fields(scene)[1][None], np.array([n]), backend)[0]
+
+
+def samples_per_geometry(scene: Scene, fields: np.ndarray) -> np.ndarray:
+    """Samples per revolution of each row of geometry ``fields`` (geometry,
+    field), as :func:`harmbal.model.sampling.inertia_samples` chooses them for
+    that geometry's scene (:func:`harmbal.model.sampling.choose_samples`'
+    count without gas; with gas, the inertia's own grid, as
+    :func:`harmbal.analyse` evaluates it): from the slowest decay rate of its
+    cylinders' harmonics. The count is a non-decreasing step function of that rate, so
+    it is asked of ``choose_samples`` only at the ends of each run of rates
+    (bisection), not once per geometry."""
+    if scene.sampling.samples_per_rev is not None:
+        return np.full(len(fields), scene.sampling.samples_per_rev)
+    columns = _columns(scene)
+    per_cylinder = {f: fields[:, columns[f]] for f in ("crank_radius", "rod_length", "pin_offset", "cylinder_offset")}
+    rho = decay_rate(per_cylinder["crank_radius"], per_cylinder["rod_length"],
+                     per_cylinder["pin_offset"] + per_cylinder["cylinder_offset"]).max(axis=1)
+    others = body_decay_rates(scene)[len(scene.cylinders):]  # the elements' (0 without lever balancers)
+    distinct, inverse = np.unique(rho, return_inverse=True)
+    counts = np.zeros(len(distinct), dtype=int)
+
+    def count(i: int) -> int:
+        if not counts[i]:
+            counts[i] = inertia_samples(scene, np.append(distinct[i], others))
+        return int(counts[i])
+
+    runs = [(0, len(distinct) - 1)]
+    while runs:
+        low, high = runs.pop()
+        if count(low) == count(high):
+            counts[low: high + 1] = counts[low]
+        elif high - low > 1:
+            middle = (low + high) // 2
+            runs += [(low, middle), (middle, high)]
+    return counts[inverse.ravel()]
+
+
+def _columns(scene: Scene) -> dict[str, np.ndarray]:
+    """Field name (``rod_length``, ``throw_unbalance[j].angle`` …) -> the columns of
+    :func:`geometry_fields` holding it, one per cylinder (or per unbalance)."""
+    names = geometry_fields(scene)[0]
+    cylinders = len(scene.cylinders)
+    columns = {f: np.array([names.index(f"cylinder[{i}].{f}") for i in range(1, cylinders + 1)])
+               for f in CYLINDER_FIELDS}
+    columns["reference_point"] = np.array([names.index(f"reference_point[{k}]") for k in (1, 2, 3)])
+    return columns
+
+
+def geometry_phasors(scene: Scene, fields: np.ndarray, samples_per_rev: np.ndarray | None = None,
+                     backend: str = "scipy", block: int = GEOMETRY_BLOCK,
+                     progress: Callable[[int, int], None] | None = None,
+                     orders: np.ndarray | None = None) -> GeometryPhasors:
+    """The order phasors per unit of each slot of many geometries of ``scene``, in array passes.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene whose geometry fields are varied (without gas, lever
+        balancers or speed fluctuation); its masses, model, sampling and
+        balance shafts are those of every geometry.
+    fields : ndarray
+        (geometry, field): rows of :func:`geometry_fields`' values.
+    samples_per_rev : ndarray of int, optional
+        (geometry,) samples of each geometry's single-cylinder spectra;
+        default :func:`samples_per_geometry` (as :func:`harmbal.analyse`
+        chooses them for each geometry's scene).
+    backend : {"scipy", "numpy", "pyfftw"}
+        FFT implementation.
+    block : int
+        Geometries evaluated in one array pass (bounds the temporaries).
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each pass.
+    orders : ndarray of int, optional
+        The orders to keep (sorted, distinct; default all, 0 … max_order):
+        the rest are dropped right after the spectra.
+
+    Returns
+    -------
+    GeometryPhasors
+        Geometry g equals :func:`linear_phasors` of
+        ``with_geometry_fields(scene, fields[g])``: the same operations,
+        element by element, with the geometry as a leading axis (the
+        kinematics and loads per unit mass of every geometry's distinct
+        cylinders, their spectra, the shift theorem, the unbalances in closed
+        form), ``block`` geometries of one sample count at a time.
+    """
+    fields = np.atleast_2d(np.asarray(fields, dtype=float))
+    count = len(fields)
+    samples = samples_per_geometry(scene, fields) if samples_per_rev is None else np.asarray(samples_per_rev)
     names, values = slot_values(scene)
-    force = np.zeros((len(names), 3, kmax + 1), dtype=complex)
+    kept = np.arange(scene.sampling.max_order + 1) if orders is None else np.asarray(orders)
+    force = np.zeros((count, len(names), 3, len(kept)), dtype=complex)
     moment = np.zeros_like(force)
-    slot = {name: s for s, name in enumerate(names)}
-
-    # One spectrum per distinct geometry, every cylinder's by the shift theorem.
-    groups: dict[tuple, int] = {}
-    group = np.array([groups.setdefault(tuple(getattr(c, f) for f in _GEOMETRY)
-                                        + (c.piston.cg_lateral, c.rod.cg_from_big_end, c.rod.cg_lateral), len(groups))
-                      for c in cyls])
-    representatives = [cyls[int(np.flatnonzero(group == g)[0])] for g in range(len(groups))]
-    theta = 2 * np.pi * np.arange(n) / n
-    basis = planar_basis(scene.model, representatives, np.broadcast_to(theta, (len(representatives), n)))
-    if basis is not None:
-        spectrum = phasors(basis, backend)[..., : kmax + 1]  # (property, c/n/roll, group, order)
-        for i, c in enumerate(cyls):
-            a, b, roll = spectrum[:, 0, group[i]], spectrum[:, 1, group[i]], spectrum[:, 2, group[i]]
-            shift = np.exp(1j * order * (c.throw - c.bank))
-            fz = (a * np.cos(c.bank) - b * np.sin(c.bank)) * shift
-            ft = (a * np.sin(c.bank) + b * np.cos(c.bank)) * shift
-            rows = [slot[f"cylinder[{i + 1}].{prop}"] for prop in PROPERTIES]
-            force[rows, 1] = -sense * ft
-            force[rows, 2] = fz
-            moment[rows, 0] = sense * roll * shift
-            moment[rows, 1] = -c.x * fz
-            moment[rows, 2] = c.x * force[rows, 1]
-
-    if "rotating" in scene.model.effects:
-        def unit(angle, x):  # first-order phasors of 1 kg m turning with the crank
-            return shaft_amplitudes(Shaft("", 1, 0.0, 0.0, (ShaftUnbalance(1.0, angle, x),)), sense)
-
-        for i, c in enumerate(cyls, start=1):
-            for j, u in enumerate(c.throw_unbalances, start=1):
-                s = slot[f"cylinder[{i}].throw_unbalance[{j}]"]
-                force[s, :, 1], moment[s, :, 1] = unit(c.throw + u.angle, u.x)
-        for j, u in enumerate(scene.crankshaft_unbalances, start=1):
-            s = slot[f"crankshaft_unbalance[{j}]"]
-            force[s, :, 1], moment[s, :, 1] = unit(u.angle, u.x)
-
-    constant_force = np.zeros((3, kmax + 1), dtype=complex)
+    columns = _columns(scene)
+    done = 0
+    for n in np.unique(samples):
+        rows = np.flatnonzero(samples == n)
+        for first in range(0, len(rows), block):
+            part = rows[first: first + block]
+            where = slice(part[0], part[-1] + 1) if part[-1] - part[0] == len(part) - 1 else part
+            _cylinder_phasors(scene, fields[where], columns, int(n), backend, (force, moment, where, orders))
+            done += len(part)
+            if progress is not None:
+                progress(done, count)
+    if "rotating" in scene.model.effects and 1 in kept:
+        first = int(np.searchsorted(kept, 1))
+        _unbalance_phasors(scene, fields, force[..., first], moment[..., first])
+    constant_force = np.zeros((3, len(kept)), dtype=complex)
     constant_moment = np.zeros_like(constant_force)
     if "balancers" in scene.model.effects and scene.shafts:
-        constant_force, constant_moment = shaft_phasors(scene.shafts, kmax, sense)
-    ref = np.asarray(scene.reference_point, dtype=float)
-    return LinearPhasors(slots=names, values=values, force=force, moment=moment_about(ref, force, moment),
-                         constant_force=constant_force,
-                         constant_moment=moment_about(ref, constant_force, constant_moment), samples_per_rev=n)
+        shafts = shaft_phasors(scene.shafts, scene.sampling.max_order, scene.sense)
+        constant_force, constant_moment = (part[:, kept] for part in shafts)
+    reference = fields[:, columns["reference_point"]].T  # (3, geometry)
+    return GeometryPhasors(
+        slots=names, values=values, force=force,
+        moment=moment_about(reference[:, :, None, None], force, moment),
+        constant_force=np.broadcast_to(constant_force, (count,) + constant_force.shape),
+        constant_moment=moment_about(reference[:, :, None], constant_force, constant_moment),
+        samples_per_rev=np.broadcast_to(samples, (count,)), orders=orders)
+
+
+def _cylinder_phasors(scene: Scene, fields: np.ndarray, columns: dict, n: int, backend: str, out: tuple) -> None:
+    """Fill the rows ``where`` of ``force`` and ``moment`` (geometry, slot, axis,
+    order), ``out = (force, moment, where, orders)``, with the cylinders' phasors
+    per unit mass of the geometries ``fields``: one exact single-cylinder
+    spectrum per distinct cylinder geometry of the block, every cylinder's by
+    the shift theorem (of ``orders``, or all)."""
+    force, moment, where, orders = out
+    count, cylinders, sense = len(fields), scene.cylinders, scene.sense
+    kmax = scene.sampling.max_order
+    order = np.arange(kmax + 1) if orders is None else orders
+    per_cylinder = {f: fields[:, columns[f]] for f in CYLINDER_FIELDS}  # (geometry, cylinder)
+    first, group = _distinct_cylinders(per_cylinder, len(cylinders))
+
+    def rows(f: str) -> np.ndarray:  # (geometry × distinct cylinder, 1)
+        return per_cylinder[f][:, first].reshape(-1, 1)
+
+    geometry = CylinderGeometry(rows("crank_radius"), rows("rod_length"), rows("pin_offset") + rows("cylinder_offset"),
+                                rows("piston.cg_lateral"), rows("rod.cg_from_big_end"), rows("rod.cg_lateral"))
+    theta = 2 * np.pi * np.arange(n) / n
+    basis = planar_basis(scene.model, geometry, theta[None, :])  # one row of angles: its trigonometry once
+    if basis is None:
+        return
+    spectrum = phasors(basis, backend)[..., : kmax + 1]
+    if orders is not None:
+        spectrum = spectrum[..., orders]
+    spectrum = spectrum.reshape(spectrum.shape[:2] + (count, len(first), len(order)))
+    slot = {name: s for s, name in enumerate(slot_values(scene)[0])}
+    for i in range(len(cylinders)):
+        a, b, roll = (spectrum[:, axis, :, group[i]] for axis in range(3))  # (property, geometry, order)
+        throw, bank, x = (per_cylinder[f][:, i, None] for f in ("throw", "bank", "x"))
+        shift = np.exp(1j * order * (throw - bank))
+        fz = (a * np.cos(bank) - b * np.sin(bank)) * shift
+        ft = (a * np.sin(bank) + b * np.cos(bank)) * shift
+        fy = -sense * ft
+        here = [slot[f"cylinder[{i + 1}].{prop}"] for prop in PROPERTIES]
+        for p, s in enumerate(here):
+            force[where, s, 1] = fy[p]
+            force[where, s, 2] = fz[p]
+            moment[where, s, 0] = sense * roll[p] * shift
+            moment[where, s, 1] = -x * fz[p]
+            moment[where, s, 2] = x * fy[p]
+
+
+def _distinct_cylinders(per_cylinder: dict[str, np.ndarray], count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first cylinder of each spectrum (cylinders equal in every spectrum
+    field in every geometry of the block share one) and each cylinder's."""
+    first: list[int] = []
+    group = np.empty(count, dtype=int)
+    for i in range(count):
+        same = (j for j, k in enumerate(first)
+                if all(np.array_equal(per_cylinder[f][:, i], per_cylinder[f][:, k]) for f in _SPECTRUM))
+        group[i] = next(same, len(first))
+        if group[i] == len(first):
+            first.append(i)
+    return np.array(first), group
+
+
+def _unbalance_phasors(scene: Scene, fields: np.ndarray, force: np.ndarray, moment: np.ndarray) -> None:
+    """First-order phasors (about the origin; ``force``, ``moment`` (geometry,
+    slot, axis) of order 1) per kg m of every static unbalance of every
+    geometry: 1 kg m turning with the crank at its angle
+    (:func:`harmbal.model.balancers.unbalance_phasors`, written out over
+    the geometries)."""
+    names = geometry_fields(scene)[0]
+    slot = {name: s for s, name in enumerate(slot_values(scene)[0])}
+    sense = scene.sense
+    unbalances: list[tuple[str, str | None]] = [(f"cylinder[{i}].throw_unbalance[{j}]", f"cylinder[{i}].throw")
+                  for i, c in enumerate(scene.cylinders, start=1) for j in range(1, len(c.throw_unbalances) + 1)]
+    unbalances += [(f"crankshaft_unbalance[{j}]", None) for j in range(1, len(scene.crankshaft_unbalances) + 1)]
+    for name, throw in unbalances:
+        angle = fields[:, names.index(f"{name}.angle")]
+        if throw is not None:
+            angle = fields[:, names.index(throw)] + angle
+        x = fields[:, names.index(f"{name}.x")]
+        c, d = np.cos(angle), np.sin(angle)
+        t = sense * x
+        s = slot[name]
+        force[:, s, 1] = -sense * d + 1j * (sense * c)
+        force[:, s, 2] = c + 1j * d
+        moment[:, s, 1] = -sense * (t * c) + 1j * (sense * -(t * d))
+        moment[:, s, 2] = -(t * d) + 1j * (t * c)
 
 
 def real_matmul(weights: np.ndarray, basis: np.ndarray) -> np.ndarray:
@@ -185,6 +454,32 @@ def combine(basis: LinearPhasors, values: np.ndarray, orders=None) -> tuple[np.n
         constant_force, constant_moment = constant_force[..., orders], constant_moment[..., orders]
     values = np.asarray(values, dtype=float)
     return real_matmul(values, force) + constant_force, real_matmul(values, moment) + constant_moment
+
+
+def combine_geometries(bases: GeometryPhasors, group: np.ndarray, values: np.ndarray,
+                       orders=None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`combine` of variants of many geometries at once: variant v has
+    the slot values ``values[v]`` and the geometry ``group[v]`` of
+    ``bases``; each variant's phasors are the sum over the slots of its
+    values times its geometry's phasors (in real arithmetic, slot by slot,
+    so that no (variant, slot, …) array is held), plus the constant part.
+
+    Returns
+    -------
+    force, moment : ndarray
+        Complex phasors at unit speed [N], [N m], shape (variant, axis, order).
+    """
+    values = np.asarray(values, dtype=float)
+    out = []
+    for basis, constant in ((bases.force, bases.constant_force), (bases.moment, bases.constant_moment)):
+        if orders is not None:
+            basis, constant = basis[..., orders], constant[..., orders]
+        flat = np.ascontiguousarray(basis).view(float)  # (geometry, slot, axis, 2 × order)
+        total = np.zeros((len(group),) + flat.shape[2:])
+        for s in range(flat.shape[1]):
+            total += values[:, s, None, None] * flat[group, s]
+        out.append(total.view(complex) + constant[group])
+    return out[0], out[1]
 
 
 def time_basis(basis: LinearPhasors, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

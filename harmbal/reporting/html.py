@@ -746,6 +746,10 @@ def _sections(page: _Page, scene, tree, log: bool, source: str | None) -> None:
     _lever(page, scene, tree, runs)
     _torque(page, scene, tree)
     _loads(page, scene, tree)
+    if "mounts" in tree.children:
+        from .mount_report import mounts_section
+
+        mounts_section(page, scene, tree)
     _clearance(page, tree)
     _provenance(page, scene, source or scene.source, dict(tree.attrs))
 

@@ -21,6 +21,10 @@ have no attribute beyond the four the deferred ones answer. With an xarray
 that lacks the names or fails the check, the entries are taken out again,
 nothing is deferred and xarray behaves as it always did (only slower).
 pyproject.toml pins the xarray releases this was tested with.
+
+:func:`defer_when_xarray_is_imported` installs the deferral as soon as any
+code imports xarray (``import harmbal`` calls it), so that no command imports
+dask or pint through xarray unless they are used.
 """
 
 from __future__ import annotations
@@ -130,3 +134,45 @@ def _deferred_collection(original):
 
     is_dask_collection._harmbal_deferred = True
     return is_dask_collection
+
+
+def defer_when_xarray_is_imported() -> None:
+    """Call :func:`defer_duck_array_imports` right after xarray is imported,
+    by whoever imports it, without importing xarray here (it costs a quarter
+    second that a command printing tables need not pay).
+
+    If xarray is imported already, the deferral is installed now. Otherwise a
+    finder at the front of ``sys.meta_path`` waits for ``import xarray``: it
+    leaves finding and loading to the other finders and only wraps the
+    loader's ``exec_module`` so that the deferral follows the module's
+    execution. The finder removes itself on first use; calling this again
+    adds no second one.
+    """
+    if "xarray" in sys.modules:
+        defer_duck_array_imports()
+    elif not any(isinstance(finder, _XarrayFinder) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _XarrayFinder())
+
+
+class _XarrayFinder:
+    """A meta path finder (the protocol, not importlib.abc's class: importing that costs 15 ms) that finds nothing
+    itself: it wraps the loader the other finders give xarray."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname != "xarray":
+            return None
+        import importlib.util
+
+        sys.meta_path.remove(self)  # before find_spec, which would come back here
+        spec = importlib.util.find_spec(fullname)
+        loader = getattr(spec, "loader", None)
+        if loader is None or not hasattr(loader, "exec_module"):
+            return spec
+        execute = loader.exec_module
+
+        def exec_module(module):
+            execute(module)
+            defer_duck_array_imports()
+
+        loader.exec_module = exec_module
+        return spec

@@ -103,17 +103,21 @@ def shown_units(ds, key: str) -> tuple[str, float]:
 
 
 def _key_value(ds, key: str, i: int) -> str:
+    if ds[key].dtype.kind in "US":  # a key named by its text (a firing order)
+        return f"{key} = {ds[key].values[i]}"
     units, factor = shown_units(ds, key)
     return f"{key} = {float(ds[key].values[i]) / factor:.6g}" + (f" {units}" if units else "")
 
 
 def _key_range(ds, key: str, count: int | None) -> str:
     """``key = low–high units (count values, kind)``."""
-    units, factor = shown_units(ds, key)
     values = ds[key].values
+    how = ("" if count is None else f"{count} value{'' if count == 1 else 's'}, ") + ds[key].attrs.get("kind", "")
+    if values.dtype.kind in "US":  # a key named by its text (a firing order): its values, not a range
+        return f"{key} = {', '.join(dict.fromkeys(values.tolist()))} ({how})"
+    units, factor = shown_units(ds, key)
     low, high = float(values.min()) / factor, float(values.max()) / factor
     span = f"{low:.6g}" if low == high else (f"{low:.6g}–{high:.6g}" if low >= 0 else f"{low:.6g} to {high:.6g}")
-    how = ("" if count is None else f"{count} value{'' if count == 1 else 's'}, ") + ds[key].attrs.get("kind", "")
     return f"{key} = {span}" + (f" {units}" if units else "") + f" ({how})"
 
 

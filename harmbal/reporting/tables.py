@@ -204,54 +204,90 @@ def verdict(stars, order: int) -> str:
     when something is left below the negligible level, ``balanced`` when
     everything is zero to round-off. Only free components (class 2) get a
     remedy."""
+    return order_verdict(order, {name: stars[name].sel(order=order).values for name in VERDICT_VALUES if name in stars})
+
+
+#: What :func:`order_verdict` reads of one order (the classes where the dataset has them).
+VERDICT_VALUES = ("force_rotating", "moment_rotating", "force_free", "moment_free", "roll_free", "force_class",
+                  "moment_class", "roll_class")
+
+
+def order_verdict(order: int, at_order: dict) -> str:
+    """:func:`verdict` from the :data:`VERDICT_VALUES` of that order (arrays
+    without the order dimension)."""
     parts = []
     for name, letter in (("force", "F"), ("moment", "M")):
-        co, counter = stars[f"{name}_rotating"].sel(order=order).values * stars[f"{name}_free"].sel(order=order).values
+        co, counter = at_order[f"{name}_rotating"] * at_order[f"{name}_free"]
         if co or counter:
             which = "co+counter" if co and counter else ("co" if co else "counter")
             parts.append(f"{letter} {which} ({balancer_remedy(order, co, counter)})")
-    if bool(stars["roll_free"].sel(order=order)):
+    if bool(at_order["roll_free"]):
         parts.append("roll")
     if parts:
         return "free: " + "; ".join(parts)
-    return "negligible" if _order_codes(stars, order).any() else "balanced"
+    return "negligible" if _order_codes(at_order).any() else "balanced"
 
 
-def _order_codes(stars, order: int) -> np.ndarray:
-    """Class codes of every component of one order of a stars Dataset: co,
-    counter of force and moment, then the roll. Without class variables
-    (older archives), zero or free from the ``*_free`` flags."""
+def _order_codes(at_order: dict) -> np.ndarray:
+    """Class codes of every component of one order of the stars (its
+    :data:`VERDICT_VALUES`): co, counter of force and moment, then the roll.
+    Without class variables (older archives), zero or free from the
+    ``*_free`` flags."""
     names = ("force_class", "moment_class", "roll_class")
-    if all(n in stars for n in names):
-        return np.concatenate([np.atleast_1d(stars[n].sel(order=order).values) for n in names])
+    if all(n in at_order for n in names):
+        return np.concatenate([np.atleast_1d(at_order[n]) for n in names])
     flags = ("force_free", "moment_free", "roll_free")
-    return np.concatenate([np.atleast_1d(stars[n].sel(order=order).values) for n in flags]).astype(np.int8) * FREE
+    return np.concatenate([np.atleast_1d(at_order[n]) for n in flags]).astype(np.int8) * FREE
+
+
+#: What :func:`stars_table_of_arrays` reads of each speed: the free vectors, classes, levels and aliasing
+#: estimates (the levels where the dataset has them).
+STAR_VALUES = VERDICT_VALUES + ("moment", "aliasing_error_force", "aliasing_error_moment", "force_negligible_level",
+                                "moment_negligible_level")
+#: What it reads once: the firing intervals and the whole crank's stars.
+STAR_CONSTANTS = ("order", "firing_interval", "star_regular", "star_angle")
 
 
 def stars_table(stars) -> str:
     """Crank stars, free force and free moment per order from
     :func:`harmbal.stars`, one block per speed, with a verdict per order."""
-    attrs = stars.attrs
-    intervals = ", ".join(f"{d:g}" for d in np.round(np.degrees(stars["firing_interval"].values), 2))
+    def at_speed(i):
+        sel = stars.isel(speed=i) if "speed" in stars.dims else stars
+        return {name: sel[name].values for name in STAR_VALUES if name in sel}
+
+    constants = {name: stars[name].values for name in STAR_CONSTANTS}
+    return stars_table_of_arrays(stars.attrs, stars.sizes["cylinder"], constants,
+                                 (stars["speed"].values, stars["rpm"].values), at_speed)
+
+
+def stars_table_of_arrays(attrs: dict, cylinders: int, constants: dict, speeds: tuple, at_speed) -> str:
+    """:func:`stars_table` from plain arrays: the stars view's attributes,
+    the number of cylinders, its :data:`STAR_CONSTANTS`, the speeds [rad/s]
+    and [rpm], and ``at_speed(i)``, the :data:`STAR_VALUES` at speed ``i``
+    (arrays as in the stars Dataset, without the speed dimension)."""
+    intervals = ", ".join(f"{d:g}" for d in np.round(np.degrees(constants["firing_interval"]), 2))
     given = "given" if attrs.get("firing_order_given") == "yes" else "derived: the most even firing"
     lines = [
-        f"{attrs.get('engine', '')}: {stars.sizes['cylinder']} cylinders, {attrs.get('cylinder_types')} cylinder "
+        f"{attrs.get('engine', '')}: {cylinders} cylinders, {attrs.get('cylinder_types')} cylinder "
         f"type(s); effects {attrs.get('effects', '')}; {attrs.get('samples_per_rev')} samples/rev per type",
         f"Firing order {attrs.get('firing_order')} ({given}); intervals {intervals}° "
         f"({'even' if attrs.get('firing_even') == 'yes' else 'uneven'})",
         "Star: arms k·φ in degrees (×multiplicity). Amplitude (peak) and phase at θ = 0 of the co- and "
         "counter-rotating transverse phasors; roll = moment about the crank axis.",
     ]
-    for sel, rpm in _at_speeds(stars, lines):
+    speed, rpm = (np.atleast_1d(v) for v in speeds)
+    for i in printed_speeds(rpm, lines):
+        sel = at_speed(i)
         lines.append("")
-        lines.append(f"Speed {rpm:.6g} rpm ({float(np.atleast_1d(sel['speed'].values)[0]):.6g} rad/s)")
+        lines.append(f"Speed {rpm[i]:.6g} rpm ({float(speed[i]):.6g} rad/s)")
         header = (f"{'order':>5}  {'F co [N]':>18}{'F counter [N]':>19}{'M co [N m]':>19}{'M counter [N m]':>19}"
                   f"{'roll [N m]':>19}  verdict")
         lines.append(header)
-        for k in sel["order"].values[1:]:
-            values = [*sel["force_rotating"].values[k], *sel["moment_rotating"].values[k], sel["moment"].values[k, 0]]
-            cells = "".join(_class_cell(v, c) for v, c in zip(values, _order_codes(sel, int(k))))
-            lines.append(f"{k:>5}  " + cells + f"  {verdict(sel, int(k))}")
+        for k in constants["order"][1:]:
+            at_order = {name: sel[name][k] for name in VERDICT_VALUES if name in sel}
+            values = [*sel["force_rotating"][k], *sel["moment_rotating"][k], sel["moment"][k, 0]]
+            cells = "".join(_class_cell(v, c) for v, c in zip(values, _order_codes(at_order)))
+            lines.append(f"{k:>5}  " + cells + f"  {order_verdict(int(k), at_order)}")
         lines.append(f"{'':>5}  estimated aliasing error {float(sel['aliasing_error_force']):.2g} N, "
                      f"{float(sel['aliasing_error_moment']):.2g} N m")
         if "force_negligible_level" in sel:
@@ -260,9 +296,9 @@ def stars_table(stars) -> str:
                                          float(attrs.get("negligible", 0.0))))
     lines.append("")
     lines.append(f"{'order':>5}  {'regular':>7}  star (whole crank)")
-    for k in stars["order"].values[1:]:
-        regular = "yes" if bool(stars["star_regular"].values[k]) else "no"
-        lines.append(f"{k:>5}  {regular:>7}  {_arms(stars['star_angle'].values[k])}")
+    for k in constants["order"][1:]:
+        regular = "yes" if bool(constants["star_regular"][k]) else "no"
+        lines.append(f"{k:>5}  {regular:>7}  {_arms(constants['star_angle'][k])}")
     return "\n".join(lines)
 
 
@@ -297,50 +333,81 @@ def _component_label(order: int, component: str) -> str:
 def design_table(result) -> str:
     """The designed elements, and per targeted order and component the value
     before, the predicted residual and whether it is cancelled, from
-    :func:`harmbal.design`."""
-    ds = result.dataset
-    lines = [f"{ds.attrs['engine']}: design of orders {', '.join(map(str, ds['order'].values))} "
-             f"(cancel {ds.attrs['cancel']}; objective {ds.attrs['objective']}) at {float(ds['rpm']):.6g} rpm",
+    :func:`harmbal.design` (its arrays: no Dataset is built)."""
+    data, coords, attrs = result.arrays
+    ds = {name: np.asarray(entry[1]) for name, entry in {**coords, **data}.items()}
+    lines = [f"{attrs['engine']}: design of orders {', '.join(map(str, ds['order']))} "
+             f"(cancel {attrs['cancel']}; objective {attrs['objective']}) at {float(ds['rpm']):.6g} rpm",
              "", "Elements (unbalance = mass × radius; angle at θ = 0 from +z in the direction of rotation):"]
-    for label, u, angle in zip(ds["element"].values, ds["unbalance"].values, ds["unbalance_angle"].values):
+    for label, u, angle in zip(ds["element"], ds["unbalance"], ds["unbalance_angle"]):
         lines.append(f"  {label:<32} {u * 1e3:>12.6g} kg mm  at {np.degrees(angle) % 360:>7.2f}°")
-    if ds.attrs.get("blanks"):
+    if attrs.get("blanks"):
         lines += ["", "Blanks sized to these unbalances (written as shapes in the output scene):"]
-        lines += [f"  {note}" for note in ds.attrs["blanks"].splitlines()]
+        lines += [f"  {note}" for note in attrs["blanks"].splitlines()]
     lines += ["", f"{'order':>5}  {'component':<15}{'without new elements':>24}{'predicted residual':>24}  result"]
-    for i, k in enumerate(ds["order"].values):
-        for j, name in enumerate(ds["component"].values):
-            if not ds["targeted"].values[i, j]:
+    for i, k in enumerate(ds["order"]):
+        for j, name in enumerate(ds["component"]):
+            if not ds["targeted"][i, j]:
                 continue
-            units = str(ds["component_units"].values[j])
-            state = "cancelled" if ds["cancelled"].values[i, j] else "LEFT"
-            lines.append(_component_label(int(k), str(name)) + _phasor(complex(ds["before"].values[i, j]), units)
-                         + _phasor(complex(ds["predicted"].values[i, j]), units) + f"  {state}")
+            units = str(ds["component_units"][j])
+            state = "cancelled" if ds["cancelled"][i, j] else "LEFT"
+            lines.append(_component_label(int(k), str(name)) + _phasor(complex(ds["before"][i, j]), units)
+                         + _phasor(complex(ds["predicted"][i, j]), units) + f"  {state}")
     lines += _made_worse_block(ds, "the new elements")
     if result.messages:
         lines += ["", *(f"! {m}" for m in result.messages)]
     return "\n".join(lines)
 
 
+#: What :func:`verify_table_of_arrays` reads of each speed (the classes and levels where the dataset has them).
+VERIFY_VALUES = ("before", "predicted", "exact", "exact_class", "difference", "tolerance", "passed", "force_scale",
+                 "moment_scale", "force_negligible_level", "moment_negligible_level", "worsened", "amplitude_before",
+                 "amplitude_after") + tuple(f"{prefix}{name}_{what}" for prefix in ("peak_", "")
+                                            for name in ("force", "moment") for what in ("before", "after", "removed"))
+#: What it reads once: the labels of its rows and which components are targeted (and ``checked_order``).
+VERIFY_LABELS = ("order", "component", "component_units", "axis", "targeted", "checked_order")
+#: What it reads of a targeted order and component.
+_ROW_VALUES = ("before", "predicted", "exact", "exact_class", "difference", "tolerance", "passed")
+
+
 def verify_table(check) -> str:
     """Residuals of the exact model next to the predicted ones, pass or fail
     per targeted order and component, and the peaks over the revolution per
     axis with the share removed, from :func:`harmbal.verify`."""
-    attrs = check.attrs
+    def at_speed(i):
+        sel = check.isel(speed=i) if "speed" in check.dims else check
+        return {name: sel[name].values for name in VERIFY_VALUES if name in sel}
+
+    labels = {name: check[name].values for name in VERIFY_LABELS if name in check}
+    return verify_table_of_arrays(check.attrs, labels, check["rpm"].values, at_speed)
+
+
+def verify_table_of_arrays(attrs: dict, labels: dict, rpm, at_speed) -> str:
+    """:func:`verify_table` from plain arrays: the verify view's attributes,
+    its :data:`VERIFY_LABELS`, the speeds [rpm] and ``at_speed(i)``, the
+    :data:`VERIFY_VALUES` at speed ``i`` (arrays as in the verify Dataset,
+    without the speed dimension)."""
     lines = [f"{attrs['engine']}: balancers verified against the exact time-domain model "
              f"({attrs['samples_per_rev']} samples/rev): {'PASSED' if attrs['passed'] == 'yes' else 'FAILED'}",
              f"Tolerance: {attrs['tolerance_rule']}."]
-    for sel, rpm in _at_speeds(check, lines):
-        lines += ["", f"Speed {rpm:.6g} rpm",
+    rpm = np.atleast_1d(rpm)
+    for i in printed_speeds(rpm, lines):
+        sel = {**labels, "rpm": rpm[i], **at_speed(i)}
+        lines += ["", f"Speed {rpm[i]:.6g} rpm",
                   f"{'order':>5}  {'component':<15}{'before':>23}{'predicted':>23}{'exact residual':>23}"
                   f"{'|Δ|':>11}{'tolerance':>11}  result"]
-        for k, name, row, units in targeted_rows(sel):
-            lines.append(_component_label(k, name) + _phasor(complex(row["before"]), units)
-                         + _phasor(complex(row["predicted"]), units) + _phasor(_verify_exact_residual(row), units)
-                         + f"{float(row['difference']):>11.2g}{float(row['tolerance']):>11.2g}  "
-                         + ("pass" if bool(row["passed"]) else "FAIL"))
+        for index, k in enumerate(labels["order"]):
+            for j, name in enumerate(labels["component"]):
+                if not bool(labels["targeted"][j]):
+                    continue
+                row = {n: sel[n][index, j] for n in _ROW_VALUES if n in sel}
+                units = str(labels["component_units"][j])
+                lines.append(_component_label(int(k), str(name)) + _phasor(complex(row["before"]), units)
+                             + _phasor(complex(row["predicted"]), units) + _phasor(_verify_exact_residual(row), units)
+                             + f"{float(row['difference']):>11.2g}{float(row['tolerance']):>11.2g}  "
+                             + ("pass" if bool(row["passed"]) else "FAIL"))
         lines += ["", f"{'':>5}  {'per axis':<15}{'before':>14}{'after':>14}{'removed':>10}"]
-        lines += _verify_axis_rows(sel) + _verify_legend(sel)
+        lines += _verify_axis_rows(sel) + _verify_legend(sel, attrs)
         lines += _made_worse_block(sel, "the balancer elements")
     return "\n".join(lines)
 
@@ -421,63 +488,100 @@ CRANK_TRAIN_LOADS = (("side_thrust", "side thrust (piston on wall)"), ("small_en
                      ("big_end_force", "big end / crank pin"))
 
 
+#: What :func:`loads_table_of_arrays` reads of each speed (the main bearings' and shafts' where the scene has them).
+LOAD_VALUES = tuple(f"{name}_{what}" for name, _ in CRANK_TRAIN_LOADS for what in ("peak", "peak_angle", "mean")) + (
+    "bearing_position", "main_bearing_force_peak", "main_bearing_force_peak_angle", "main_bearing_force_mean",
+    "shaft_bearing_position", "shaft_bearing_rotating", "shaft_bearing_static", "shaft_bearing_peak")
+#: What it reads once: the balancer elements' fastener loads and ramp torques.
+LOAD_CONSTANTS = ("fastener_speed", "fasteners", "fastener_load", "inertia", "ramp_torque", "ramp_power", "ramp_alpha")
+#: The labels it reads: the coordinates of its rows.
+LOAD_LABELS = ("cylinder", "bearing", "shaft", "shaft_bearing", "element")
+
+
 def loads_table(loads) -> str:
     """Peak and mean loads of every joint and bearing, per speed, of a loads
     Dataset (:func:`harmbal.loads`, ``/loads``): the crank train per
     cylinder, the main bearings, the balance-shaft bearings, and the
     fastener loads and ramp torques of the balancer elements."""
-    span = 360 * int(loads.attrs["revolutions"])
-    gas = "with gas" if loads.attrs["gas"] == "yes" else "no gas"
-    lines = [f"{loads.attrs['engine']}: bearing and interface loads over {span}° ({loads.attrs['samples_per_rev']} "
+    def at_speed(i):
+        sel = loads.isel(speed=i) if "speed" in loads.dims else loads
+        return {name: sel[name].values for name in LOAD_VALUES if name in sel}
+
+    constants = {name: loads[name].values for name in LOAD_CONSTANTS if name in loads}
+    if "ramp_torque" in loads:
+        constants["ramp"] = loads["ramp_torque"].attrs["ramp"]
+    labels = {name: loads[name].values for name in LOAD_LABELS if name in loads.dims}
+    return loads_table_of_arrays(loads.attrs, labels, constants, loads["rpm"].values, at_speed)
+
+
+def loads_table_of_arrays(attrs: dict, labels: dict, constants: dict, rpm, at_speed) -> str:
+    """:func:`loads_table` from plain arrays: the loads view's attributes,
+    the :data:`LOAD_LABELS` it has, its :data:`LOAD_CONSTANTS` (and the
+    ramp's text, ``ramp``), the speeds [rpm] and ``at_speed(i)``, the
+    :data:`LOAD_VALUES` at speed ``i`` (arrays as in the loads Dataset,
+    without the speed dimension)."""
+    span = 360 * int(attrs["revolutions"])
+    gas = "with gas" if attrs["gas"] == "yes" else "no gas"
+    lines = [f"{attrs['engine']}: bearing and interface loads over {span}° ({attrs['samples_per_rev']} "
              f"samples/rev; constant speed, {gas}); peak and mean of the magnitude, crank angle θ of the peak"]
-    for sel, rpm in _at_speeds(loads, lines):
-        lines += ["", f"Speed {rpm:.6g} rpm", "Crank train",
-                  f"  {'cylinder':<10}{'joint':<30}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
-        for label in sel["cylinder"].values:
-            for name, meaning in CRANK_TRAIN_LOADS:
-                row = sel.sel(cylinder=label)
-                lines.append(f"  {str(label):<10}{meaning:<30}{float(row[name + '_peak']):>12.5g}"
-                             f"{np.degrees(float(row[name + '_peak_angle'])):>8.1f}°"
-                             f"{float(row[name + '_mean']):>12.5g}")
-        if "bearing" in sel.dims:
-            lines += ["Main bearings (statically determinate split; force of the crankshaft on the bearing)",
-                      f"  {'bearing':<10}{'x [mm]':>10}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
-            for label in sel["bearing"].values:
-                row = sel.sel(bearing=label)
-                lines.append(f"  {str(label):<10}{float(row['bearing_position']) * 1e3:>10.6g}"
-                             f"{float(row['main_bearing_force_peak']):>12.5g}"
-                             f"{np.degrees(float(row['main_bearing_force_peak_angle'])):>8.1f}°"
-                             f"{float(row['main_bearing_force_mean']):>12.5g}")
-        if "shaft" in sel.dims:
-            lines += ["Balance-shaft bearings (lever rule; rotating amplitude, static load, peak of the sum)",
-                      f"  {'shaft':<34}{'bearing':>8}{'x [mm]':>10}{'rotating [N]':>14}{'static [N]':>12}"
-                      f"{'peak [N]':>12}"]
-            for label in sel["shaft"].values:
-                for end in sel["shaft_bearing"].values:
-                    row = sel.sel(shaft=label, shaft_bearing=end)
-                    static = float(np.hypot(*row["shaft_bearing_static"].values))
-                    lines.append(f"  {str(label):<34}{str(end):>8}{float(row['shaft_bearing_position']) * 1e3:>10.6g}"
-                                 f"{float(row['shaft_bearing_rotating']):>14.5g}{static:>12.5g}"
-                                 f"{float(row['shaft_bearing_peak']):>12.5g}")
-    if "element" in loads.dims:
-        rpm = float(loads["fastener_speed"]) * 30 / np.pi
-        lines += ["", f"Fastener loads at {rpm:.6g} rpm (each fastener's share of its weight's centrifugal force)",
-                  f"  {'element':<34}{'fasteners':>10}{'load [N]':>12}"]
-        for label, count, value in zip(loads["element"].values, loads["fasteners"].values,
-                                       loads["fastener_load"].values):
-            if count:
-                lines.append(f"  {str(label):<34}{int(count):>10}{float(value):>12.5g}")
-        if "ramp_torque" in loads:
-            lines += ["", f"Drive torque of the speed ramp {loads['ramp_torque'].attrs['ramp']} "
-                          f"(crank α = {float(loads['ramp_alpha']):.5g} rad/s²)",
-                      f"  {'element':<34}{'I [kg m²]':>12}{'torque [N m]':>14}{'power [W]':>12}"]
-            for label, inertia, torque, power in zip(loads["element"].values, loads["inertia"].values,
-                                                     loads["ramp_torque"].values, loads["ramp_power"].values):
-                if np.isfinite(inertia):
-                    lines.append(f"  {str(label):<34}{inertia:>12.5g}{torque:>14.5g}{power:>12.5g}")
-            lines.append(f"  {'total':<34}{'':>12}{np.nansum(loads['ramp_torque'].values):>14.5g}"
-                         f"{np.nansum(loads['ramp_power'].values):>12.5g}")
+    rpm = np.atleast_1d(rpm)
+    for i in printed_speeds(rpm, lines):
+        lines += ["", f"Speed {rpm[i]:.6g} rpm", *_load_rows(labels, at_speed(i))]
+    if "element" in labels:
+        lines += _element_rows(labels["element"], constants)
     return "\n".join(lines)
+
+
+def _load_rows(labels: dict, sel: dict) -> list[str]:
+    """The rows of :func:`loads_table_of_arrays` at one speed: the crank
+    train, the main bearings and the balance-shaft bearings."""
+    lines = ["Crank train", f"  {'cylinder':<10}{'joint':<30}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
+    for j, label in enumerate(labels["cylinder"]):
+        for name, meaning in CRANK_TRAIN_LOADS:
+            lines.append(f"  {str(label):<10}{meaning:<30}{float(sel[name + '_peak'][j]):>12.5g}"
+                         f"{np.degrees(float(sel[name + '_peak_angle'][j])):>8.1f}°"
+                         f"{float(sel[name + '_mean'][j]):>12.5g}")
+    if "bearing" in labels:
+        lines += ["Main bearings (statically determinate split; force of the crankshaft on the bearing)",
+                  f"  {'bearing':<10}{'x [mm]':>10}{'peak [N]':>12}{'at θ':>9}{'mean [N]':>12}"]
+        for j, label in enumerate(labels["bearing"]):
+            lines.append(f"  {str(label):<10}{float(sel['bearing_position'][j]) * 1e3:>10.6g}"
+                         f"{float(sel['main_bearing_force_peak'][j]):>12.5g}"
+                         f"{np.degrees(float(sel['main_bearing_force_peak_angle'][j])):>8.1f}°"
+                         f"{float(sel['main_bearing_force_mean'][j]):>12.5g}")
+    if "shaft" in labels:
+        lines += ["Balance-shaft bearings (lever rule; rotating amplitude, static load, peak of the sum)",
+                  f"  {'shaft':<34}{'bearing':>8}{'x [mm]':>10}{'rotating [N]':>14}{'static [N]':>12}"
+                  f"{'peak [N]':>12}"]
+        for j, label in enumerate(labels["shaft"]):
+            for e, end in enumerate(labels["shaft_bearing"]):
+                static = float(np.hypot(*sel["shaft_bearing_static"][j, e]))
+                lines.append(f"  {str(label):<34}{str(end):>8}{float(sel['shaft_bearing_position'][j, e]) * 1e3:>10.6g}"
+                             f"{float(sel['shaft_bearing_rotating'][j, e]):>14.5g}{static:>12.5g}"
+                             f"{float(sel['shaft_bearing_peak'][j, e]):>12.5g}")
+    return lines
+
+
+def _element_rows(elements, constants: dict) -> list[str]:
+    """The fastener loads and the ramp's drive torques of the balancer
+    ``elements`` (labels), from :func:`loads_table_of_arrays`' constants."""
+    rpm = float(constants["fastener_speed"]) * 30 / np.pi
+    lines = ["", f"Fastener loads at {rpm:.6g} rpm (each fastener's share of its weight's centrifugal force)",
+             f"  {'element':<34}{'fasteners':>10}{'load [N]':>12}"]
+    for label, count, value in zip(elements, constants["fasteners"], constants["fastener_load"]):
+        if count:
+            lines.append(f"  {str(label):<34}{int(count):>10}{float(value):>12.5g}")
+    if "ramp_torque" in constants:
+        lines += ["", f"Drive torque of the speed ramp {constants['ramp']} "
+                      f"(crank α = {float(constants['ramp_alpha']):.5g} rad/s²)",
+                  f"  {'element':<34}{'I [kg m²]':>12}{'torque [N m]':>14}{'power [W]':>12}"]
+        for label, inertia, torque, power in zip(elements, constants["inertia"], constants["ramp_torque"],
+                                                 constants["ramp_power"]):
+            if np.isfinite(inertia):
+                lines.append(f"  {str(label):<34}{inertia:>12.5g}{torque:>14.5g}{power:>12.5g}")
+        lines.append(f"  {'total':<34}{'':>12}{np.nansum(constants['ramp_torque']):>14.5g}"
+                     f"{np.nansum(constants['ramp_power']):>12.5g}")
+    return lines
 
 
 def collisions_first(clearance) -> list[int]:
@@ -554,15 +658,18 @@ def power_and_fluctuation_table(torque) -> str:
 # Helpers of design_table and verify_table.
 
 
-def _made_worse_block(ds, by: str) -> list[str]:
-    """The components a design or verify Dataset (at one speed) finds made
-    worse, not targeted: a labelled block, or a line saying nothing was."""
-    from ..balance.verify import CHECKED_ORDER, describe_component, worsened_rows
+def _made_worse_block(values, by: str) -> list[str]:
+    """The components a design or verify Dataset (at one speed), or its
+    :data:`~harmbal.balance.verify.WORSENED_VALUES`, finds made worse, not
+    targeted: a labelled block, or a line saying nothing was."""
+    from ..balance.verify import CHECKED_ORDER, WORSENED_VALUES, describe_component, worsened_rows_of_arrays
 
-    if "worsened" not in ds:  # an archive written before the check
+    if "worsened" not in values:  # an archive written before the check
         return []
-    rows = list(worsened_rows(ds))
-    orders = ds[CHECKED_ORDER].values
+    if not isinstance(values, dict):  # a Dataset
+        values = {name: values[name].values for name in WORSENED_VALUES}
+    rows = list(worsened_rows_of_arrays(values))
+    orders = values[CHECKED_ORDER]
     if not rows:
         return ["", f"Nothing else made worse by {by} (orders {orders.min()}-{orders.max()}, every component)."]
     return ["", f"Made worse (not targeted) by {by}:"] + [
@@ -576,12 +683,13 @@ def _verify_level(ds, kind: str) -> float:
     return float(ds[name]) if name in ds else 0.0
 
 
-def _verify_legend(ds) -> list[str]:
-    """What ``0`` and ``~0`` mean in a verify Dataset's table at one speed
-    (nothing for an archive written without the negligible levels)."""
+def _verify_legend(ds, attrs: dict) -> list[str]:
+    """What ``0`` and ``~0`` mean in a verify table at one speed (``ds``: its
+    values, ``attrs``: the Dataset's; nothing for an archive written without
+    the negligible levels)."""
     if _verify_level(ds, "force") <= 0:
         return []
-    return [f"{'':>5}  0: exact zero (round-off); ~0: negligible (at most {ds.attrs['negligible']:g} of one "
+    return [f"{'':>5}  0: exact zero (round-off); ~0: negligible (at most {attrs['negligible']:g} of one "
             f"cylinder's share of the load scale: {_verify_level(ds, 'force'):.2g} N, "
             f"{_verify_level(ds, 'moment'):.2g} N m)"]
 
@@ -604,19 +712,19 @@ def _classed_amplitude(value: float, scale: float, level: float) -> str:
     return f"{'0' if code == ZERO else '~0' if code == NEGLIGIBLE else format(value, '.5g'):>14}"
 
 
-def _verify_axis_rows(sel) -> list[str]:
-    """The per-axis rows of a verify Dataset at one speed: the peaks over
-    the revolution, then each verified order, forces then moments."""
+def _verify_axis_rows(sel: dict) -> list[str]:
+    """The per-axis rows of a verify table at one speed (its values and
+    labels): the peaks over the revolution, then each verified order, forces
+    then moments."""
     lines = []
     for name, units in (("force", "N"), ("moment", "N m")):
         scale, level = float(sel[f"{name}_scale"]), _verify_level(sel, name)
-        for prefix, order in [("peak_", None)] + [("", k) for k in sel["order"].values]:
-            for axis in sel["axis"].values:
-                at = {"axis": axis} if order is None else {"order": order, "axis": axis}
-                before, after, removed = (sel[f"{prefix}{name}_{what}"].sel(at)
+        rows = [("peak_", "peak", ())] + [("", k, (index,)) for index, k in enumerate(sel["order"])]
+        for prefix, order, at in rows:
+            for a, axis in enumerate(sel["axis"]):
+                before, after, removed = (sel[f"{prefix}{name}_{what}"][at + (a,)]
                                           for what in ("before", "after", "removed"))
-                lines += _verify_axis_row("peak" if order is None else order, f"{name} {axis} [{units}]", before,
-                                          after, removed, scale, level)
+                lines += _verify_axis_row(order, f"{name} {axis} [{units}]", before, after, removed, scale, level)
     return lines
 
 

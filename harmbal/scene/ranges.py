@@ -89,6 +89,10 @@ MAGNITUDES: dict[str, Range] = {
     "pressure": Range(1.0, 1e9, unit="Pa", why="1 Pa to 10 000 bar; each gas pressure has a narrower range"),
     "time": Range(1e-6, 1e6, unit="s", why="a microsecond to 11 days"),
     "density": Range(1.0, 1e5, unit="kg/m^3", why="foams to the densest metals"),
+    "stiffness": Range(1e-30, 1e15, unit="N/m", why="a mount's stiffness, up to 1e12 N/mm"),
+    "damping": Range(1e-30, 1e12, unit="N s/m", why="a mount's viscous damping"),
+    "acceleration": Range(1e-30, 1e6, unit="m/s^2", why="up to about 100 000 g"),
+    "frequency": Range(1e-6, 1e6, unit="Hz", why="a microhertz to a megahertz"),
 }
 
 _BAR: dict[str, Any] = {"unit": "bar", "scale": 1e5}
@@ -128,6 +132,11 @@ KEY_RANGES: dict[str, Range] = {
     "exhaust_pressure": Range(1e3, 1e7, **_BAR, why="absolute cylinder pressure through the exhaust stroke"),
     "peak_pressure": Range(1e5, 5e7, **_BAR, why="no engine's cylinder peaks above 500 bar"),
     "imep": Range(1e3, 1e7, **_BAR, why="indicated mean effective pressure (engines reach about 30 bar)"),
+    # [[mount]], [mount_design]
+    "loss_factor": Range(0, 2, why="a mount's hysteretic loss factor η (rubber about 0.05–0.3, hydromounts up "
+                                   "to about 1)"),
+    "decoupling": Range(0, 1, why="the least share of each mode's kinetic energy in its dominant DOF (0: no "
+                                  "constraint)"),
 }
 
 

@@ -12,8 +12,9 @@ lists) and returning its part: :mod:`.read_engine` ([engine], [model],
 [sampling]), :mod:`.read_cylinders` ([geometry], [piston], [rod],
 [[cylinder]], unbalances), :mod:`.read_gas` ([gas], [flywheel]),
 :mod:`.read_balancers` (balancer elements), :mod:`.read_requests`
-([design], [verify]), :mod:`.read_loads` ([loads]) and :mod:`.read_shapes`
-(blanks, [[outline]]). What tables read in different places share (trace
+([design], [verify]), :mod:`.read_loads` ([loads]), :mod:`.read_shapes`
+(blanks, [[outline]]) and :mod:`.read_mounts` ([powertrain], [[mount]],
+[mount_design]). What tables read in different places share (trace
 files, gas tables) is a :class:`~.collector.SceneContext` passed to those
 that need it. The dataclasses are in :mod:`.schema`, the range of every
 numeric key in :mod:`.ranges`, and how files are read in
@@ -37,6 +38,7 @@ from .read_cylinders import read_cylinders, read_shared_tables, read_unbalances
 from .read_engine import read_engine, read_firing_order, read_model, read_sampling
 from .read_gas import read_flywheel
 from .read_loads import read_loads
+from .read_mounts import read_mount_design, read_mounts, read_powertrain
 from .read_requests import read_requests
 from .read_shapes import read_outlines
 from .schema import EFFECTS, MAX_SPEEDS, MISSING, Cylinder, Flywheel, Model, Problem, Scene, SceneError, key_path
@@ -228,6 +230,7 @@ _TOP_KEYS = {
     "engine", "model", "sampling", "geometry", "piston", "rod",
     "throw_unbalance", "cylinder", "crankshaft_unbalance", "crankshaft", "counterweight", "balance_shaft",
     "lanchester_pair", "lever_balancer", "design", "verify", "gas", "flywheel", "loads", "outline",
+    "powertrain", "mount", "mount_design",
 }
 
 
@@ -252,10 +255,14 @@ def _read_scene(reader: Collector, context: SceneContext, data: Mapping, text: s
     flywheel = read_flywheel(reader, data, has_gas)
     outlines = read_outlines(reader, data.get("outline", []), cylinders, shafts)
     loads = read_loads(reader, data, shafts)
+    powertrain = read_powertrain(reader, data)
+    mounts = read_mounts(reader, data, powertrain)
+    mount_design = read_mount_design(reader, data, mounts)
     _check_fluctuation(reader, model, flywheel, levers)
     return Scene(**header, cylinders=cylinders, crankshaft_unbalances=crankshaft, shafts=shafts, levers=levers,
                  model=model, sampling=sampling, firing_order=firing_order, design=design, verify=verify,
-                 flywheel=flywheel, loads=loads, outlines=outlines, source=reader.source, source_text=text,
+                 flywheel=flywheel, loads=loads, outlines=outlines, powertrain=powertrain, mounts=mounts,
+                 mount_design=mount_design, source=reader.source, source_text=text,
                  files=tuple(sorted(context.read.items())))
 
 

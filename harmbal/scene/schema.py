@@ -15,6 +15,7 @@ import numpy as np
 
 from .elements import LeverBalancer, Shaft
 from .interfaces import LoadsRequest
+from .mounts import Mount, MountDesignRequest, Powertrain
 from .ranges import MAGNITUDES, MAX_SAMPLES, MAX_SPEEDS, NEGLIGIBLE_RANGE  # noqa: F401  (re-exported)
 from .requests import DesignRequest, LeverDesignRequest, VerifyRequest
 from .shapes import Outline
@@ -294,6 +295,11 @@ class Scene:
     outlines: tuple[Outline, ...] = ()
     #: Bearing and interface loads asked for ([loads]: main bearings, balancer interfaces, ramp).
     loads: LoadsRequest | None = None
+    #: The powertrain as a rigid body ([powertrain]), its mounts ([[mount]]: the scene asks for mounts when
+    #: it has them) and what a mount design is asked ([mount_design]).
+    powertrain: Powertrain | None = None
+    mounts: tuple[Mount, ...] = ()
+    mount_design: MountDesignRequest | None = None
     source: str = "<mapping>"
     source_text: str = ""
     #: The text of each file the scene read (its pressure traces), by name as written: (name, text) pairs, so

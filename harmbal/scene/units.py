@@ -34,6 +34,10 @@ SI_UNITS: dict[str, str] = {
     "pressure": "Pa",
     "time": "s",
     "density": "kg/m^3",
+    "stiffness": "N/m",
+    "damping": "N s/m",
+    "acceleration": "m/s^2",
+    "frequency": "Hz",
     "dimensionless": "",
 }
 
@@ -104,6 +108,14 @@ def _parse_with_pint(text: str, dimension: str) -> float:
         raise QuantityError(
             f"{text!r} is ambiguous for a rotational speed: write rpm, rad/s or turn/s"
         )
+    if dimension == "frequency" and _names_an_angle(ureg, quantity):
+        # the same trap the other way: pint would read "800 rpm" as 2π·800/60 = 83.8 Hz, not 13.3 Hz.
+        try:
+            turns = f": {text} is {float(quantity.to('Hz').magnitude) / (2 * math.pi):.6g} Hz"
+        except pint.DimensionalityError:
+            turns = ""
+        raise QuantityError(f"{text!r} names an angle or a revolution: write a frequency in Hz (cycles per "
+                            f"second){turns}")
     try:
         if unit:
             return float(quantity.to(unit).magnitude)
@@ -192,6 +204,10 @@ _SI: dict[str, tuple[tuple[str, int], ...]] = {
     "pressure": (("pascal", 1),),
     "time": (("second", 1),),
     "density": (("kilogram", 1), ("meter", -3)),
+    "stiffness": (("newton", 1), ("meter", -1)),
+    "damping": (("newton", 1), ("second", 1), ("meter", -1)),
+    "acceleration": (("meter", 1), ("second", -2)),
+    "frequency": (("hertz", 1),),
     "dimensionless": (),
 }
 
@@ -203,6 +219,8 @@ _NUMBER = re.compile(r"([+-]?)((0|[1-9][0-9]*)(?![0-9.eE])|[0-9]+\.[0-9]*(?:[eE]
 # One unit with an optional integer power, then what joins it to the next.
 _FACTOR = re.compile(r"([A-Za-z]+)(?: *(?:\^|\*\*) *([+-]?(?:0|[1-9][0-9]*)))?(?= |\*|/|$)")
 _JOIN = re.compile(r" *(\*|/) *| +(?=[A-Za-z])")
+# A reciprocal unit after the number: "50 1/s".
+_ONE_OVER = re.compile(r" +1 */ *(?=[A-Za-z])")
 
 
 def _fast(text: str, dimension: str) -> float | None:
@@ -216,8 +234,14 @@ def _fast(text: str, dimension: str) -> float | None:
     if sign == "-":
         value = value * -1  # pint's unary minus
     position = number.end()
+    one_over = _ONE_OVER.match(text, position)
     if position == len(text):
         units: dict[str, int] = {}
+    elif one_over is not None:  # "50 1/s": pint's 50 × 1, then divided by the units
+        value, evaluated = _evaluate(text, one_over.end(), value * 1, reciprocal=True)
+        if evaluated is None:
+            return None
+        units = evaluated
     else:
         # "5 mm", "5mm" (pint inserts the "*"), "5*mm"; not "1e3mm"
         gap = _JOIN.match(text, position)
@@ -233,6 +257,8 @@ def _fast(text: str, dimension: str) -> float | None:
         units = evaluated
     if dimension == "speed" and not any(name.startswith("revolutions_per_") or not _dimension(name) for name in units):
         return None  # ambiguous ("50 Hz"): pint words the refusal
+    if dimension == "frequency" and any(name.startswith("revolutions_per_") or not _dimension(name) for name in units):
+        return None  # "800 rpm" as a frequency: refused in pint's path
     target = dict(_SI[dimension])
     if units == target:
         return float(value)
@@ -242,13 +268,15 @@ def _fast(text: str, dimension: str) -> float | None:
     return float(value * _factor(ratio))
 
 
-def _evaluate(text: str, position: int, value: float) -> tuple[float, dict[str, int] | None]:
+def _evaluate(text: str, position: int, value: float,
+              reciprocal: bool = False) -> tuple[float, dict[str, int] | None]:
     """The magnitude and units of ``value`` times the unit expression from
-    ``position``, evaluated left to right as pint's expression tree does:
-    ``5 kg m/s^2`` is ((5·kg)·m)/(s²), each unit a quantity of magnitude 1."""
+    ``position`` (divided by it if ``reciprocal``), evaluated left to right
+    as pint's expression tree does: ``5 kg m/s^2`` is ((5·kg)·m)/(s²), each
+    unit a quantity of magnitude 1."""
     units: dict[str, int] = {}
-    operator = "*"
-    first = True
+    operator = "/" if reciprocal else "*"
+    first = not reciprocal
     while True:
         factor = _FACTOR.match(text, position)
         if factor is None or factor.group(1) not in _NAMES:

@@ -120,3 +120,96 @@ def blank_table(blank) -> dict:
         shapes.append(table)
     return {"density": quantity_text(blank.density, "kg/m^3"), "thickness": length_text(blank.thickness),
             "shape": shapes}
+
+
+def _mount_values(mount) -> dict:
+    """A mount's position, axes and stiffness (and its table, if any) as
+    [[mount]] keys, in mm and N/mm at full precision (axes u and w as plain
+    numbers; v follows)."""
+    values = {"position": [length_text(v) for v in mount.position],
+              "axes": {"u": [float(x) for x in mount.axes[0]], "w": [float(x) for x in mount.axes[2]]},
+              "stiffness": [quantity_text(k / 1e3, "N/mm") for k in mount.stiffness]}
+    if mount.table is not None:  # a designed stiffness scales the table's column: the table is written too
+        table = mount.table
+        values["table"] = {"frequency": [quantity_text(f, "Hz") for f in table.frequency],
+                           "stiffness": [[quantity_text(k / 1e3, "N/mm") for k in row] for row in table.stiffness],
+                           "loss_factor": [[float(x) for x in row] for row in table.loss_factor]}
+    return values
+
+
+def mounts_scene_text(scene, mounts, name: str | None = None) -> str:
+    """The scene's TOML text with each [[mount]]'s position, axes and
+    stiffness replaced by those of ``mounts`` (matched by name), and without
+    [mount_design] (the result is a designed scene, as ``harmbal design``
+    writes one); comments kept.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene read (its ``source_text`` is edited).
+    mounts : iterable of Mount
+        The mounts to write; each names a [[mount]] of the scene.
+    name : str, optional
+        A new ``engine.name``.
+
+    Returns
+    -------
+    str
+        TOML text that reads back to ``mounts``' values (lengths in mm,
+        stiffnesses in N/mm, at full precision). Falls back to a plain TOML
+        dump if the text cannot be edited safely (a value written over
+        several lines, an inline array of mounts).
+    """
+    import tomllib
+
+    import tomli_w
+
+    values = {m.name: _mount_values(m) for m in mounts}
+    original = tomllib.loads(scene.source_text)
+    expected = {k: v for k, v in original.items() if k != "mount_design"}
+    names = [m.name for m in scene.mounts]
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        raise ValueError(f"mounts not in the scene: {', '.join(map(repr, unknown))}")
+    expected["mount"] = [{**entry, **values.get(names[i], {})} for i, entry in enumerate(original["mount"])]
+    if name is not None:
+        expected["engine"] = {**expected["engine"], "name": name}
+    engine = {} if name is None else {"name": name}
+    text = _with_mount_values(with_engine(without_tables(scene.source_text, {"mount_design"}), engine),
+                              [values.get(n) for n in names])
+    try:
+        if tomllib.loads(text) == expected:
+            return text
+    except tomllib.TOMLDecodeError:
+        pass
+    return tomli_w.dumps(expected)
+
+
+def _with_mount_values(text: str, values: list) -> str:
+    """``text`` with the keys of ``values[i]`` replaced in the i-th [[mount]]
+    table (the old value kept as a comment), or added after its header."""
+    lines: list[str] = []
+    entry, header, body = -1, 0, False
+    pending: dict = {}
+
+    def add_missing() -> None:
+        lines[header + 1:header + 1] = [f"{k} = {inline(v)}" for k, v in pending.items()]
+        pending.clear()
+
+    for line in text.splitlines():
+        match = HEADER.match(line)
+        if match:
+            section = match.group(1).replace(" ", "")
+            body = section == "mount" and line.lstrip().startswith("[[")
+            if body or not section.startswith("mount."):  # the table of the last mount ends
+                add_missing()
+            if body:
+                entry += 1
+                header = len(lines)
+                pending = dict(values[entry] or {}) if entry < len(values) else {}
+        elif body and "=" in line and line.split("=", 1)[0].strip() in pending:
+            key, old = line.split("=", 1)[0].strip(), line.split("=", 1)[1].split("#", 1)[0].strip()
+            line = f"{key} = {inline(pending.pop(key))}  # was {old}"
+        lines.append(line)
+    add_missing()
+    return "\n".join(lines) + "\n"

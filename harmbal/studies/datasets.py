@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..labelled import CONVENTIONS, Speeds, dataset, variable
-from ..model.evaluate import evaluate
+from ..model.evaluate import evaluate, time_domain_evaluation
 from ..orders.spectrum import ROTATION, ZERO_RTOL, negligible_level
 from ..scene import Scene
 from .plan import Plan
@@ -69,7 +69,7 @@ def sweep_dataset(scene: Scene, plan: Plan, arrays: dict, orders: np.ndarray, di
     speeds = Speeds(scene.speeds)
     var = _SpeedVariables(speeds)
     data = _load_variables(arrays, var, dim, attrs)
-    data.update(_levels(scene, speeds))
+    data.update(_levels(scene, speeds, plan))
     coords = {dim: variable((dim,), np.arange(plan.variants.count), {"long_name": f"{dim} number"})}
     if plan.designs:
         _add_designs(data, coords, plan.designs[0], arrays, var, dim)
@@ -82,11 +82,16 @@ def sweep_dataset(scene: Scene, plan: Plan, arrays: dict, orders: np.ndarray, di
     })
     if speeds.several:
         coords.update(speeds.coords())
+    if plan.gas is not None:
+        data.update(_gas_variables(arrays, dim))
+        coords["gas_order"] = variable(("gas_order",), plan.gas.orders(arrays["gas_torque_amplitude"].shape[1]), {
+            "long_name": "order of crank speed of the gas loads (half orders over a four-stroke cycle)", "units": "1"})
+        attrs = {"revolutions": plan.gas.revolutions, **attrs}
     attrs = {
         "harmbal_conventions": CONVENTIONS, "engine": scene.name, "rotation": scene.rotation,
         "speed_rad_s": list(scene.speeds), "max_order": scene.sampling.max_order,
-        "linear_keys": list(plan.linear), "geometry_keys": list(plan.geometry), "geometries": len(plan.bases),
-        "samples_per_rev": sorted({b.samples_per_rev for b in plan.bases}), "zero_rtol": ZERO_RTOL,
+        "linear_keys": list(plan.linear), "geometry_keys": list(plan.geometry), "geometries": len(plan.combos),
+        "samples_per_rev": list(plan.samples), "zero_rtol": ZERO_RTOL,
         "negligible": float(scene.model.negligible), "cylinders": len(scene.cylinders), "classes": CLASSES_NOTE,
         **attrs,
     }
@@ -114,6 +119,22 @@ def _load_variables(arrays: dict, var: _SpeedVariables, dim: str, attrs: dict) -
                 "units": units, "long_name": f"largest magnitude of the {name} vector over a revolution",
                 "description": f"maximum over {attrs['peak_samples']} angles of the orders 0..max_order "
                                "rebuilt from the phasors"})
+    return data
+
+
+def _gas_variables(arrays: dict, dim: str) -> dict:
+    """The gas torque's order phasors and the roll moment with gas, at the sweep's one speed."""
+    phasor = "C_k with signal(theta) = sum_k Re(C_k exp(i k theta)); |C_k| peak amplitude"
+    data = {}
+    for name, what in (("gas_torque", "the gas torque on the crankshaft, in the direction of rotation (sum over the "
+                                      "cylinders; speed-independent)"),
+                       ("roll_moment", "the shaking moment about the crank axis (x), inertia and gas: the moment's "
+                                       "x component at whole orders, the gas's alone at half orders")):
+        if name in arrays:
+            data[name] = variable((dim, "gas_order"), arrays[name], {
+                "units": "N m", "long_name": f"order phasor of {what}", "description": phasor})
+        data[f"{name}_amplitude"] = variable((dim, "gas_order"), arrays[f"{name}_amplitude"], {
+            "units": "N m", "long_name": f"amplitude |C_k| of {what}"})
     return data
 
 
@@ -148,7 +169,8 @@ def _key_coords(plan: Plan, arrays: dict, dim: str) -> dict:
     coords = {}
     for key in plan.keys:
         key_attrs: dict[str, Any] = {"long_name": f"scene key {key}",
-                                     "kind": "linear" if key in plan.linear else "geometry"}
+                                     "kind": "linear" if key in plan.linear else "geometry" if key in plan.geometry
+                                     else "gas"}
         si_units, display_units = plan.units[key]
         if si_units is not None:
             key_attrs.update(units=si_units, display_units=display_units)
@@ -156,24 +178,28 @@ def _key_coords(plan: Plan, arrays: dict, dim: str) -> dict:
     return coords
 
 
-def _levels(scene: Scene, speeds: Speeds) -> dict:
+def _levels(scene: Scene, speeds: Speeds, plan: Plan) -> dict:
     """The nominal scene's load scales and negligible levels at the sweep's
-    speeds (inertial loads and their scales go with ω²)."""
-    def at_speeds(unit_value: float, attrs: dict):
+    speeds (inertial loads and their scales go with ω²; with gas, the moment's
+    scale has the gas's added, as /orders adds it: the sweep then has one speed)."""
+    def at_speeds(unit_value: float, attrs: dict, constant: float = 0.0):
         if speeds.several:
             return speeds.variable((), np.asarray(unit_value), attrs)
-        return variable((), np.asarray(float(speeds.w2) * unit_value), attrs)
+        return variable((), np.asarray(float(speeds.w2) * unit_value + constant), attrs)
 
-    unit = evaluate(scene)
+    unit = evaluate(scene) if plan.gas is None else time_domain_evaluation(scene)[0]
+    gas_scale = 0.0 if plan.gas is None else plan.gas.moment_scale
     data = {}
-    for name, units, scale in (("force", "N", unit.force_scale), ("moment", "N m", unit.moment_scale)):
+    for name, units, scale, constant in (("force", "N", unit.force_scale, 0.0),
+                                         ("moment", "N m", unit.moment_scale, gas_scale)):
         data[f"nominal_{name}_scale"] = at_speeds(scale, {
             "units": units, "long_name": f"sum of the single bodies' peak {name}s of the nominal scene (the scene "
-                                         "swept): the scale its zero class is judged by"})
+                                         "swept): the scale its zero class is judged by"}, constant)
         level = float(negligible_level(scale, len(scene.cylinders), scene.model.negligible))
+        gas_level = float(negligible_level(constant, len(scene.cylinders), scene.model.negligible))
         data[f"{name}_negligible_level"] = at_speeds(level, {
             "units": units, "long_name": f"{name} amplitude at or below which a load is negligible: [model] "
-                                         "negligible x the nominal scale / cylinders"})
+                                         "negligible x the nominal scale / cylinders"}, gas_level)
     return data
 
 

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..orders.linear import LinearPhasors, combine, peaks, time_basis
+from ..orders.linear import GeometryPhasors, LinearPhasors, combine, combine_geometries, peaks, time_basis
 from ..orders.spectrum import transverse_split
 from .plan import Plan
 
@@ -25,6 +25,8 @@ if TYPE_CHECKING:
 
 #: Variants whose peaks are rebuilt at a time (bounds the memory of the time-domain blocks).
 PEAK_BLOCK = 4096
+#: Most geometries in a block whose variants are combined geometry by geometry (more: all in one pass).
+LOOP_GEOMETRIES = 64
 #: Variants evaluated at a time when only the amplitudes are kept (phasors of 13 orders: 80 MB a block).
 BLOCK = 65536
 
@@ -77,15 +79,15 @@ def rotating(phasor: np.ndarray, orders: np.ndarray, sense: int) -> np.ndarray:
     return np.stack([co, counter], axis=-1)
 
 
-def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.ndarray, orders: np.ndarray,
+def evaluate_plan(bases: GeometryPhasors, group: np.ndarray, slots: np.ndarray, orders: np.ndarray,
                   peak_samples: int | None = None, w2: float = 1.0,
                   designs: Sequence[DesignBasis] | None = None) -> dict[str, np.ndarray]:
     """Phasors (and peaks, and designs) of a block of variants at one speed.
 
     Parameters
     ----------
-    bases : sequence of LinearPhasors
-        One per geometry.
+    bases : GeometryPhasors
+        The geometries' phasors per slot.
     group : ndarray of int
         (variant,) the geometry of each variant.
     slots : ndarray
@@ -113,25 +115,44 @@ def evaluate_plan(bases: Sequence[LinearPhasors], group: np.ndarray, slots: np.n
         variant with its designed elements.
     """
     out = _empty_outputs(len(group), len(orders), peak_samples, designs)
+    positions = bases.positions(orders)  # where the orders lie in the bases (which may keep only those)
     # The variants of each geometry that occurs in the block: slices if the block is sorted by geometry (a
     # grid's blocks are, its geometry keys varying slowest), fancy indices otherwise.
     count = len(group)
     ordered = bool(np.all(group[1:] >= group[:-1]))
     by_group = None if ordered else np.argsort(group, kind="stable")
     present, starts = np.unique(group if ordered else group[by_group], return_index=True)
+    # Few geometries: a matrix product each; many (a Monte Carlo run of a geometry tolerance): all at once.
+    each = len(present) <= LOOP_GEOMETRIES
+    if not each:
+        _combine_all(out, bases, group, present, slots, positions, w2)
+        if not (peak_samples or designs):
+            return out
     for g, start, stop in zip(present, starts, np.append(starts[1:], count)):
         rows = slice(start, stop) if by_group is None else by_group[start:stop]
         basis = bases[g]
         if w2 != 1.0:
             basis = replace(basis, force=w2 * basis.force, moment=w2 * basis.moment,
                             constant_force=w2 * basis.constant_force, constant_moment=w2 * basis.constant_moment)
-        f, m = combine(basis, slots[rows], orders)
-        out["force"][rows], out["moment"][rows] = f.swapaxes(-1, -2), m.swapaxes(-1, -2)
+        if each:
+            f, m = combine(basis, slots[rows], positions)
+            out["force"][rows], out["moment"][rows] = f.swapaxes(-1, -2), m.swapaxes(-1, -2)
         if peak_samples:
             _peaks(out, basis, slots, np.arange(count)[rows], peak_samples)
         if designs:
             _designs(out, designs[g], slots[rows], rows, orders, w2)
     return out
+
+
+def _combine_all(out: dict, bases: GeometryPhasors, group: np.ndarray, present: np.ndarray, slots: np.ndarray,
+                 positions: np.ndarray, w2: float) -> None:
+    """The phasors of a block of variants of many geometries in one pass
+    (:func:`harmbal.orders.linear.combine_geometries`), of the orders at ``positions`` in the bases."""
+    used = bases.take(present, positions)
+    if w2 != 1.0:
+        used = used.scaled(w2)
+    f, m = combine_geometries(used, np.searchsorted(present, group), slots)
+    out["force"][:], out["moment"][:] = f.swapaxes(-1, -2), m.swapaxes(-1, -2)
 
 
 def _empty_outputs(count: int, orders: int, peak_samples: int | None,
@@ -176,7 +197,12 @@ def evaluate_block(plan: Plan, start: int, stop: int, options: BlockOptions) -> 
     their co/counter split (a function of the plan and the block alone, so
     that dask can run it on any worker)."""
     group, slots, out = plan.block(start, stop)
-    arrays = evaluate_plan(plan.bases, group, slots, options.orders, options.peak_samples, options.w2, plan.designs)
+    bases, group = plan.block_bases(group)
+    orders = options.orders if plan.gas is None else np.arange(options.orders[-1] + 1)  # every whole gas order
+    arrays = evaluate_plan(bases, group, slots, orders, options.peak_samples, options.w2, plan.designs)
+    if plan.gas is not None:
+        out.update(add_gas(arrays, plan.gas.block(plan.variants, start, stop), plan.gas.revolutions, plan.sense,
+                           options))
     for name in ("force", "moment", "residual_force", "residual_moment"):
         if name not in arrays:
             continue
@@ -186,6 +212,34 @@ def evaluate_block(plan: Plan, start: int, stop: int, options: BlockOptions) -> 
             out[name] = phasor
             out[f"{name}_rotating"] = rotating(phasor, options.orders, plan.sense)
     out.update(arrays)  # the peaks and the designs
+    return out
+
+
+def add_gas(arrays: dict, torque: np.ndarray, revolutions: int, sense: int, options: BlockOptions) -> dict:
+    """Add the gas couple to the moment phasors of a block (``arrays``' ``force``, ``moment`` (variant,
+    order, axis) at every whole order 0 … the highest reported, cut here to the orders reported), as
+    :func:`harmbal.analyse`'s /orders adds it: −sense·ΣT about the crank axis, speed-independent, at each
+    whole order of the cycle. ``torque`` (variant, gas order): the gas torque phasors, Σ over the cylinders.
+
+    Returns
+    -------
+    dict
+        ``gas_torque_amplitude``, ``roll_moment_amplitude`` (variant, gas order) and with ``options.phasors``
+        ``gas_torque`` and ``roll_moment`` (complex): the gas torque on the crankshaft and the moment about
+        the crank axis, inertia and gas, at every gas order 0 … the highest reported in steps of
+        1/revolutions.
+    """
+    moment = arrays["moment"]
+    count = revolutions * (moment.shape[1] - 1) + 1
+    roll = -sense * torque[:, :count]
+    whole = np.arange(moment.shape[1]) * revolutions
+    moment[:, :, 0] += roll[:, whole]
+    roll[:, whole] = moment[:, :, 0]
+    for name in ("force", "moment"):
+        arrays[name] = arrays[name][:, options.orders]
+    out = {"gas_torque_amplitude": np.abs(torque[:, :count]), "roll_moment_amplitude": np.abs(roll)}
+    if options.phasors:
+        out.update(gas_torque=np.array(torque[:, :count]), roll_moment=roll)
     return out
 
 

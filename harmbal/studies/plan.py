@@ -6,8 +6,14 @@ A *linear* key changes only masses, rod inertias or unbalance sizes (the
 slots of :mod:`harmbal.orders.linear`), in proportion to its value: its
 values enter every variant by one matrix product, without reading or
 evaluating anything again. Any other key is a *geometry* key: each distinct
-combination of the geometry keys' values is read (and validated) as a scene
-and evaluated once (:func:`harmbal.orders.linear.linear_phasors`).
+combination of the geometry keys' values is evaluated once. Field keys
+(:mod:`.geometry`: radii, lengths, offsets, CG positions, throws, banks, axial
+positions, unbalance angles, the reference point) are validated for their
+range and evaluated as arrays, all geometries in a few passes
+(:func:`harmbal.orders.linear.geometry_phasors`), here or, with many of them,
+by each block of variants (:meth:`Plan.block_bases`); the rest are read (and
+validated) as a scene per combination and evaluated on their own
+(:func:`harmbal.orders.linear.linear_phasors`).
 """
 
 from __future__ import annotations
@@ -19,9 +25,21 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..model.budget import check_budget
-from ..orders.linear import LinearPhasors, geometry_key, linear_phasors, slot_values
+from ..model.sampling import simulates_gas
+from ..orders.linear import (
+    GEOMETRY_BLOCK,
+    GeometryPhasors,
+    LinearPhasors,
+    geometry_key,
+    geometry_phasors,
+    linear_phasors,
+    slot_values,
+    with_geometry_fields,
+)
 from ..scene import Scene
 from ..scene.schema import MISSING
+from .gas import FIRING_ORDER, GasPlan, firing_order_labels, gas_plan, is_gas_key, unsupported_with_gas
+from .geometry import FieldMap, check_geometries, combination_values, field_map
 from .keys import key_error, parse_path, toml_value
 from .quantities import key_units, si_values
 from .requests import KeyValues, SweepOptions
@@ -29,6 +47,11 @@ from .variants import SceneVariants, Variants
 
 if TYPE_CHECKING:
     from ..balance.variants import DesignBasis
+
+#: Largest phasors of all geometries a plan keeps [bytes]; beyond, each block of variants evaluates its own.
+EAGER_BYTES = 256 * 2**20
+#: Most geometries a chunked plan keeps (more: each dask chunk evaluates its own, so the workers share the work).
+EAGER_CHUNKED = 1024
 
 
 @dataclass
@@ -41,11 +64,17 @@ class Plan:
     linear: dict[str, dict[int, float]]  # linear key -> {slot: slot value per SI unit of the key}
     geometry: tuple[str, ...]
     variants: Variants
-    combos: np.ndarray                   # sorted flat numbers of the geometry combinations, one per basis
-    bases: list[LinearPhasors]           # one per distinct geometry
+    combos: np.ndarray                   # sorted flat numbers of the geometry combinations, one per geometry
+    bases: GeometryPhasors | None        # every geometry's phasors; None: each block evaluates its own
     base_slots: np.ndarray               # (geometry, slot) the slot values each geometry was read with
     sense: int
     designs: list[DesignBasis] | None    # one per geometry, if the sweep designs the balancers
+    fields: FieldMap | None = None       # the geometry keys as arrays (None: each geometry read as a scene)
+    scene: Scene | None = None           # the swept scene, for blocks that evaluate their own geometries
+    backend: str = "scipy"
+    samples: tuple[int, ...] = ()        # the geometries' samples per revolution (distinct, sorted)
+    orders: np.ndarray | None = None     # the orders a block evaluating its own geometries keeps (None: all)
+    gas: GasPlan | None = None           # the gas torque of each distinct trace (None: no gas)
 
     def block(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """Geometry (variant,), slot values (variant, slot) and key values {key: (variant,)} of a block."""
@@ -62,15 +91,32 @@ class Plan:
                 slots[:, s] = coords[key] if a == 1.0 else a * coords[key]
         return group, slots, coords
 
+    def block_bases(self, group: np.ndarray) -> tuple[GeometryPhasors, np.ndarray]:
+        """The phasors of the geometries ``group`` (variant,) of a block and
+        each variant's geometry among them: the plan's, or (if the plan keeps
+        none) the block's own geometries evaluated here, in one array pass
+        (:func:`harmbal.orders.linear.geometry_phasors`), so that each dask
+        chunk evaluates its own."""
+        if self.bases is not None:
+            return self.bases, group
+        assert self.fields is not None and self.scene is not None  # a plan without bases keeps its field map
+        present, local = np.unique(group, return_inverse=True)
+        columns = [self.keys.index(k) for k in self.geometry]
+        _, x = combination_values(self.variants, columns, [self.si[k] for k in self.geometry], self.combos[present])
+        bases = geometry_phasors(self.scene, self.fields.fields(x), backend=self.backend, orders=self.orders)
+        return bases, local.ravel()
+
 
 @dataclass(frozen=True)
 class _Geometries:
     """The distinct geometries of a sweep, read and evaluated."""
 
     combos: np.ndarray
-    bases: list[LinearPhasors]
+    bases: GeometryPhasors | None
     slots: np.ndarray
     designs: list | None
+    fields: FieldMap | None = None
+    samples: tuple[int, ...] = ()
 
 
 def make_plan(scene: Scene, keys: KeyValues, options: SweepOptions | None = None,
@@ -98,33 +144,65 @@ def make_plan(scene: Scene, keys: KeyValues, options: SweepOptions | None = None
         A scene the sweep cannot vary, a key or value the reader refuses.
     """
     options = SweepOptions() if options is None else options
-    _check_scene(scene, options.design)
+    _check_scene(scene, options)
     reader = SceneVariants(scene)
-    si, units = {}, {}
+    si: dict[str, np.ndarray] = {}
+    units: dict[str, tuple[str | None, str | None]] = {}
     for key, vals in keys.values.items():
         parse_path(scene.source, key)
+        if key == FIRING_ORDER:  # not a quantity: its values are named by their text
+            si[key], units[key] = np.array(["-".join(firing_order_labels(v)) for v in vals]), (None, None)
+            continue
         dimension = reader.dimension(key, vals[0])
         si[key], typed_here = si_values(scene.source, key, vals, dimension)
         units[key] = key_units(dimension, (keys.typed or {}).get(key, typed_here))
+    gas_keys = tuple(k for k in keys.values if is_gas_key(k))
+    _check_gas_keys(scene, gas_keys)
+    inertia_values = {k: v for k, v in keys.values.items() if k not in gas_keys}
     # A geometry key that also moves a linear key's slot (a rod split and a rod mass) makes both geometry:
     # sort the keys again with those as geometry, until no linear key is moved by a geometry.
     forced: frozenset[str] = frozenset()
     while True:
-        linear = _linear_keys(reader, keys.values, si, forced, options.design)
-        geometry = tuple(k for k in keys.values if k not in linear)
-        read = _read_geometries(reader, keys, linear, geometry, options, budget)
+        linear = _linear_keys(reader, inertia_values, si, forced, options.design)
+        geometry = tuple(k for k in inertia_values if k not in linear)
+        fields = field_map(reader, keys.values, si, geometry) if geometry else None
+        read = (_read_geometries(reader, keys, linear, geometry, options, budget) if fields is None else
+                _vector_geometries(reader, keys, si, fields, options, budget))
         if isinstance(read, _Geometries):
             break
         forced |= read
+    gas = gas_plan(reader, keys.values, si, keys.variants, geometry, gas_keys, read.fields, options.backend,
+                   options.progress)
     return Plan(keys=tuple(keys.values), si=si, units=units, linear=linear, geometry=geometry,
                 variants=keys.variants, combos=read.combos, bases=read.bases, base_slots=read.slots,
-                sense=scene.sense, designs=read.designs)
+                sense=scene.sense, designs=read.designs, fields=read.fields, scene=reader.scene,
+                backend=options.backend, samples=read.samples, orders=_kept_orders(options, scene), gas=gas)
 
 
-def _check_scene(scene: Scene, design: bool) -> None:
+def _kept_orders(options: SweepOptions, scene: Scene) -> np.ndarray | None:
+    """The orders the geometries' phasors need: those reported, or all for the peaks and designs; with gas
+    every whole order up to the highest reported (the roll moment is given at every gas order up to it)."""
+    if options.orders is None or options.peaks or options.design:
+        return None
+    kept = np.unique(np.asarray(options.orders, dtype=int))
+    return np.arange(kept[-1] + 1) if simulates_gas(scene) else kept
+
+
+def _check_gas_keys(scene: Scene, gas_keys: tuple[str, ...]) -> None:
+    """Gas keys need a scene that simulates gas."""
+    if gas_keys and not simulates_gas(scene):
+        raise key_error(scene.source, gas_keys[0], None, "changes the gas loads, which this scene does not simulate: "
+                        "give it a [gas] table (and the effect \"gas\", docs/gas.md)")
+
+
+def _check_scene(scene: Scene, options: SweepOptions) -> None:
     reason = unsupported(scene)
     if reason:
         raise key_error(scene.source, "(scene)", scene.name, reason)
+    refused = unsupported_with_gas(scene, options) if simulates_gas(scene) else None
+    if refused:
+        raise key_error(scene.source, *refused)
+    design = options.design
     if design and scene.design is None:
         raise key_error(scene.source, "design", MISSING, "designing per variant needs the scene's [design] table "
                         "(docs/design.md)")
@@ -133,8 +211,6 @@ def _check_scene(scene: Scene, design: bool) -> None:
 def unsupported(scene: Scene) -> str | None:
     """Why the sweep cannot vary ``scene``, or None."""
     effects = scene.model.effects
-    if "gas" in effects or any(c.gas is not None for c in scene.cylinders):
-        return "gas loads are not linear in the masses: sweep a scene without [gas]"
     if "speed_fluctuation" in effects:
         return "the speed fluctuation is not swept yet: leave out the effect"
     if scene.levers and "balancers" in effects:
@@ -233,7 +309,43 @@ def _read_geometries(reader: SceneVariants, keys: KeyValues, linear: dict, geome
         if options.progress is not None:
             options.progress(len(bases), len(combos))
         slot_rows.append(bases[-1].values)
-    return _Geometries(combos, bases, np.array(slot_rows), designs if options.design else None)
+    return _Geometries(combos, GeometryPhasors.stack(bases), np.array(slot_rows), designs if options.design else None,
+                       samples=tuple(sorted({b.samples_per_rev for b in bases})))
+
+
+def _vector_geometries(reader: SceneVariants, keys: KeyValues, si: dict, fields: FieldMap, options: SweepOptions,
+                       budget: dict | None) -> _Geometries:
+    """The distinct geometries of field keys (:mod:`.geometry`): validated as arrays, and evaluated here in
+    array passes, or (many geometries, or chunks of many) left to each block of variants to evaluate its own."""
+    scene, variants = reader.scene, keys.variants
+    columns = [tuple(keys.values).index(k) for k in fields.keys]
+    combos = variants.combinations(columns)
+    count = len(combos)
+    slot_count = len(slot_values(scene)[0])
+    eager = options.design or (count * slot_count * 96 * (scene.sampling.max_order + 1) <= EAGER_BYTES
+                               and (options.chunks is None or count <= EAGER_CHUNKED))
+    if budget is not None:
+        check_budget(scene, "sweep", sweep={**budget, "geometries": count, "geometry_key": ", ".join(fields.keys),
+                                            "vectorised": not options.design, "eager": eager})
+    samples = check_geometries(reader, fields, keys.values, si, variants, columns, combos)
+    slots = np.broadcast_to(slot_values(scene)[1], (count, slot_count))
+    distinct = tuple(int(n) for n in np.unique(samples))
+    if not eager:
+        if options.progress is not None:
+            options.progress(count, count)
+        return _Geometries(combos, None, slots, None, fields, distinct)
+    _, x = combination_values(variants, columns, [si[k] for k in fields.keys], combos)
+    rows = fields.fields(x)
+    step = max(1, min(GEOMETRY_BLOCK, -(-count // 10)))  # about ten progress reports
+    bases = geometry_phasors(scene, rows, samples, options.backend, step, options.progress,
+                             _kept_orders(options, scene))
+    designs: list[DesignBasis] | None = None
+    if options.design:
+        designs = []
+        for g in range(count):
+            first = designs[0] if designs else None
+            designs.append(_design_basis(with_geometry_fields(scene, rows[g]), bases[g], first, fields.keys))
+    return _Geometries(combos, bases, slots, designs, fields, distinct)
 
 
 def _design_basis(scene: Scene, basis: LinearPhasors, first: DesignBasis | None, keys: tuple[str, ...]) -> DesignBasis:

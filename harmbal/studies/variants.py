@@ -68,6 +68,14 @@ class Variants:
             return tuple(int(i) for i in np.unravel_index(combination, tuple(self.lengths[c] for c in columns)))
         return (int(combination),) * len(columns)
 
+    def value_numbers(self, combinations: np.ndarray, columns: list[int]) -> np.ndarray:
+        """:meth:`values_of` of many combinations at once: (combination, key in ``columns``)."""
+        combinations = np.asarray(combinations)
+        if self.mode == "grid":
+            shape = tuple(self.lengths[c] for c in columns)
+            return np.stack(np.unravel_index(combinations, shape), axis=-1).reshape(len(combinations), len(columns))
+        return np.repeat(combinations[:, None], len(columns), axis=1)
+
 
 class SceneVariants:
     """Reads variants of one scene through the scene reader, naming the scene's file in errors.

@@ -25,6 +25,7 @@ from ..orders.spectrum import phasors, rotating_split
 from ..scene import Scene
 from ..scene.interfaces import LoadsRequest
 from ..scene.requests import PEAK_SAMPLES
+from .stars import Scaled
 from .time import attributes
 
 ROD_AXES = ("along", "across")
@@ -88,6 +89,17 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
         a ``[loads.ramp]``, ``ramp_torque`` [N m] (I·n·α, on the shaft) and
         ``ramp_power`` [W] at the ramp's end speed.
     """
+    data, coords, attrs = load_arrays(scene, samples_per_rev=samples_per_rev, backend=backend)
+    speeds = Speeds(scene.speeds)
+    data = {name: speeds.variable(*entry) if isinstance(entry, Scaled) else entry for name, entry in data.items()}
+    return dataset(data, {**speeds.coords(), **coords}, attrs)
+
+
+def load_arrays(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "scipy"):
+    """:func:`loads` on plain arrays: its entries (``(dims, values, attrs)``,
+    or :class:`harmbal.views.stars.Scaled` for the variables that go with
+    ω²), its coordinates besides the speeds' and its attributes, in the
+    Dataset's order."""
     check_budget(scene, "loads")  # refused before anything is allocated if over the memory or time budget
     n = samples_per_rev or max(choose_samples(scene), PEAK_SAMPLES)
     gas = gas_loads(scene, n) if simulates_gas(scene) else None
@@ -95,15 +107,14 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
     revolutions = gas.revolutions if gas is not None else 1
     train = crank_train(scene, theta, None if gas is None else gas.force)
     speeds = Speeds(scene.speeds)
-    coords = speeds.coords()
-    coords.update({
+    coords = {
         "angle": ("angle", theta, {"units": "rad", "long_name": "crank angle θ"}),
         "cylinder": ("cylinder", [c.label for c in scene.cylinders], {"long_name": "cylinder label"}),
         "rod_axis": ("rod_axis", list(ROD_AXES), {"long_name": "rod frame: along (big end to small end), across"}),
         "crank_axis": ("crank_axis", list(CRANK_AXES), {"long_name": "crank frame: radial (outwards), tangential "
                                                                       "(direction of rotation)"}),
         "axis": ("axis", ["y", "z"], {"long_name": "engine axis"}),
-    })
+    }
     data = _crank_train_loads(train, np.array([c.bank for c in scene.cylinders]), speeds, theta)
     if gas is not None:
         data["gas_force"] = (("cylinder", "angle"), gas.force,
@@ -122,7 +133,7 @@ def loads(scene: Scene, *, samples_per_rev: int | None = None, backend: str = "s
                   "harmbal_conventions": "constant crank speed; forces in the named frames (see each variable); "
                                          "loads = ω²·(inertial part at 1 rad/s) + (gas and static part); "
                                          "docs/loads.md"})
-    return dataset(data, coords, attrs)
+    return data, coords, attrs
 
 
 def _affine(name: str, dims: tuple, unit: np.ndarray, constant: np.ndarray, attrs: dict, speeds: Speeds,
@@ -130,7 +141,7 @@ def _affine(name: str, dims: tuple, unit: np.ndarray, constant: np.ndarray, attr
     """The variable ω²·unit + constant and, if ``peaks``, its peak, peak angle
     and mean magnitude per speed (over the angle ``theta``), as Dataset entries."""
     # Without gas or static loads the variable is a pure ω² product, archived as one like /time's.
-    data = {name: speeds.variable(dims, unit, attrs, constant=constant if np.any(constant) else None)}
+    data: dict = {name: Scaled(dims, unit, attrs, constant if np.any(constant) else None)}
     if not peaks:
         return data
     # Magnitudes of vector loads: the component axis is the one before the angle.
@@ -195,7 +206,7 @@ def _main_bearing_loads(train, request: LoadsRequest, cylinder_x: list, sense: i
     unit, constant = main_bearings(train, cylinder_x, bearings, static, sense)
     coords["bearing"] = ("bearing", [str(i + 1) for i in range(bearings.size)],
                          {"long_name": "main bearing, numbered as listed in [loads] main_bearings"})
-    data = {"bearing_position": (("bearing",), bearings, {"units": "m", "long_name": "axial position x"})}
+    data: dict = {"bearing_position": (("bearing",), bearings, {"units": "m", "long_name": "axial position x"})}
     data.update(_affine("main_bearing_force", ("bearing", "axis", "angle"), np.stack(to_engine(unit, sense), axis=-2),
                         np.stack(to_engine(constant, sense), axis=-2),
                         {"units": "N", "long_name": "force of the crankshaft on the main bearing (on the block)",
@@ -210,10 +221,10 @@ def _main_bearing_loads(train, request: LoadsRequest, cylinder_x: list, sense: i
         return np.stack([co, counter], axis=-2)
 
     fixed = split(constant)
-    data["main_bearing_order"] = speeds.variable(("bearing", "rotation", "order"), split(unit), {
+    data["main_bearing_order"] = Scaled(("bearing", "rotation", "order"), split(unit), {
         "units": "N", "long_name": "order phasors of the main-bearing force, w = F_z + i·F_t",
         "description": "w(θ) = Σ_k (P_co e^{ikθ} + P_counter e^{−ikθ}); order 0 is the mean force (co)"},
-        constant=fixed if np.any(fixed) else None)
+        fixed if np.any(fixed) else None)
     return data
 
 
@@ -240,10 +251,10 @@ def _elements(request: LoadsRequest, shafts, sense: int, theta: np.ndarray, spee
         coords["shaft_bearing"] = ("shaft_bearing", ["1", "2"], {"long_name": "shaft bearing, as listed"})
         data["shaft_bearing_position"] = (("shaft", "shaft_bearing"), np.array([e.bearings for _, e in bearing_rows]),
                                           {"units": "m", "long_name": "axial position x"})
-        data["shaft_bearing_force"] = speeds.variable(
+        data["shaft_bearing_force"] = Scaled(
             ("shaft", "shaft_bearing", "axis", "angle"), np.stack(to_engine(unit, sense), axis=-2),
             {"units": "N", "long_name": "force of the balance shaft on its bearing (on the block)"},
-            constant=np.stack(to_engine(np.broadcast_to(constant, unit.shape), sense), axis=-2))
+            np.stack(to_engine(np.broadcast_to(constant, unit.shape), sense), axis=-2))
         data["shaft_bearing_rotating"] = (lead + ("shaft", "shaft_bearing"),
                                           squeeze(np.multiply.outer(w2, np.abs(unit).max(axis=-1))),
                                           {"units": "N", "long_name": "amplitude of the rotating (unbalance) part"})

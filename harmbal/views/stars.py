@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -100,6 +100,34 @@ def placement(scene: Scene) -> Placement:
 FREE_VECTORS = ("force", "moment", "force_rotating", "moment_rotating")
 
 
+class Scaled(NamedTuple):
+    """An entry of a view on plain arrays (:func:`star_arrays`,
+    :func:`harmbal.views.loads.load_arrays`) that goes with ω²: ``dims``, the
+    ``unit``-speed values, the variable's ``attrs`` and the speed-independent
+    part (``constant``, None: zero); the Dataset's variable is
+    :meth:`harmbal.labelled.Speeds.variable` of them."""
+
+    dims: tuple
+    unit: Any
+    attrs: dict
+    constant: Any = None
+
+
+class _UnitSpeed:
+    """What :func:`harmbal.views.orders.order_classes` reads of the speeds
+    when it judges the inertia alone (no speed-independent part): its
+    negligible levels come back as :class:`Scaled` entries, for
+    :func:`stars_dataset` to multiply out at the speeds and for the CLI's
+    table to read without a Dataset."""
+
+    lead: tuple = ()
+
+    @staticmethod
+    def variable(dims: tuple, unit, attrs: dict, constant=None) -> Scaled:
+        assert constant is None, "the stars judge the inertia alone"
+        return Scaled(tuple(dims), unit, attrs)
+
+
 def stars_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, place: Placement, *, totals: tuple | None = None):
     """The Dataset of :func:`stars` from the order phasors of the evaluation
     ``ev`` (:attr:`harmbal.views.evaluation.Evaluation.phasors`) at
@@ -111,9 +139,18 @@ def stars_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, place: Placement,
     analysis tree's ``/orders``; then the free vectors are classified from
     them and :data:`FREE_VECTORS` are left to ``/orders``
     (:func:`with_free_vectors` puts them back)."""
+    data, coords, attrs = star_arrays(ev, attrs, place, totals=totals)
+    data = {name: speeds.variable(*entry) if isinstance(entry, Scaled) else entry for name, entry in data.items()}
+    return dataset(data, {**speeds.coords(), **coords}, attrs)
+
+
+def star_arrays(ev: Evaluation, attrs: dict, place: Placement, *, totals: tuple | None = None):
+    """:func:`stars_dataset` on plain arrays: its entries (``(dims, values,
+    attrs)``, or :class:`Scaled` for those that go with ω²), its coordinates
+    besides the speeds' and its attributes, in the Dataset's order."""
     p = ev.phasors
     kmax = p.force_cylinder.shape[-1] - 1
-    labels, var, coords = place.labels, speeds.variable, speeds.coords()
+    labels = place.labels
 
     def rotating(per_axis):
         return np.stack(transverse_split(per_axis, p.sense), axis=-1)
@@ -122,11 +159,13 @@ def stars_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, place: Placement,
     force, moment = (p.force, p.moment) if totals is None else totals
     force_rot, moment_rot = rotating(force), rotating(moment)
     # The classes and levels as /orders judges them (at unit speed: every speed has the same classes).
-    classes = order_classes({"force_rotating": force_rot, "force_scale": p.force_scale, "moment_rotating": moment_rot,
-                             "moment": moment.T, "moment_scale": p.moment_scale}, {}, speeds,
-                            {**attrs, "cylinders": len(labels)})
+    judged = {"force_rotating": force_rot, "force_scale": p.force_scale, "moment_rotating": moment_rot,
+              "moment": moment.T, "moment_scale": p.moment_scale}
+    # _UnitSpeed answers what order_classes reads of a Speeds without gas (duck-typed: no xarray on the way).
+    classes = order_classes(judged, {}, _UnitSpeed(), {**attrs, "cylinders": len(labels)})  # type: ignore[arg-type]
     force_free, moment_free, roll_free = (classes[f"{name}_class"][1] == FREE for name in ("force", "moment", "roll"))
     angles, regular, resultant, banks, bank_regular, bank_resultant = crank_stars(place.throw, place.bank, kmax)
+    var = Scaled
     data = {
         "star_angle": (("order", "cylinder"), angles, {"units": "rad", "long_name": "crank star arm k·φ_i"}),
         "star_regular": ("order", regular, {"long_name": "crank star arms equally spaced with equal multiplicity"}),
@@ -158,10 +197,23 @@ def stars_dataset(ev: Evaluation, speeds: Speeds, attrs: dict, place: Placement,
         "firing_interval": ("firing", place.firing.interval,
                             {"units": "rad", "long_name": "crank angle to the next firing"}),
     }
-    coords.update(_star_coords(place, kmax, banks))
+    coords = _star_coords(place, kmax, banks)
     if totals is not None:
         del coords["axis"]  # only the free vectors have it
-    return dataset(data, coords, _star_attrs(attrs, p, place))
+    return data, coords, _star_attrs(attrs, p, place)
+
+
+def free_vectors_at(values: dict, data: dict, w2: float) -> dict:
+    """:func:`with_free_vectors` on plain arrays, at the speed whose ω² is
+    ``w2``: :data:`FREE_VECTORS` of an order view (``values``,
+    :func:`harmbal.views.orders.unit_orders`, whole orders, at unit speed)
+    with the components at or below ``balanced_rtol`` × the stars' own load
+    scales (``data``: :func:`star_arrays`' entries) set to exactly 0."""
+    out = {}
+    for name in FREE_VECTORS:
+        value, scale = w2 * np.asarray(values[name]), w2 * np.asarray(data[f"{name.split('_')[0]}_scale"].unit)
+        out[name] = np.where(np.abs(value) <= BALANCED_RTOL * scale, 0, value)
+    return out
 
 
 def _free_vectors(p: OrderPhasors, var, force, moment, force_rot, moment_rot) -> dict:

@@ -16,7 +16,7 @@ CASES = [
      {"cylinders": 9, "symmetry": False}),
     ("inline-6 four-stroke", ROOT / "datasets/engines/inline-6.toml", {}),
     ("V8 90 deg, gas", ROOT / "datasets/engines/v8-cross-plane-gas.toml",
-     {"layout": "V", "bank": 90, "stagger": 0.011}),
+     {"layout": "V", "bank": "90 deg", "stagger": 0.011}),
 ]
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import shlex
 import sys
 import warnings
@@ -330,11 +331,13 @@ def _search(args) -> None:
     if args.write is not None:
         _check_output(args.write, (".toml",), "the scene to write must be a .toml file", inputs=(args.scene,))
     scene = _load(args.scene)
-    bank = None if args.bank is None else (args.bank[0] if args.layout == "V" and len(args.bank) == 1 else
-                                           tuple(args.bank))
+    # The command takes degrees, the API radians.
+    radians = None if args.bank is None else [math.radians(b) for b in args.bank]
+    bank = None if radians is None else (radians[0] if args.layout == "V" and len(radians) == 1 else tuple(radians))
     try:
         ds = search(scene, args.layout, args.cylinders, args.cycle, bank=bank, pitch=args.pitch,
-                    stagger=args.stagger, split_pins=args.split_pins, grid=args.grid,
+                    stagger=args.stagger, split_pins=args.split_pins,
+                    grid=None if args.grid is None else math.radians(args.grid),
                     symmetry=not args.no_symmetry, first_order=args.first_order)
         text = candidate_text(ds, args.pick) if args.write is not None else None
     except SceneError as exc:

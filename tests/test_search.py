@@ -4,6 +4,7 @@ the written scene against hb.analyse, the symmetry reduction, the enumeration's 
 from __future__ import annotations
 
 import collections
+import math
 from pathlib import Path
 
 import numpy as np
@@ -63,7 +64,7 @@ def test_inline_four_flat_crank_second_order_force_is_the_exact_models():
 
 def test_cross_plane_v8_first_order_couple_is_purely_co_rotating():
     scene = load_scene(ENGINES / "v8-cross-plane.toml")
-    ds = search(scene, "V", bank=90, stagger=0.011, symmetry=False)
+    ds = search(scene, "V", bank=math.radians(90), stagger=0.011, symmetry=False)
     cross = _one(ds, "1-5-4-2-6-3-7-8")
     assert str(cross.crank.values) == "0/90/270/180"
     co, counter = np.abs(cross.moment_rotating.sel(order=1).values)
@@ -82,6 +83,8 @@ def test_inline_five_best_moment_arrangement_is_the_72_degree_crank_1_2_4_5_3():
     best = ds.isel(candidate=0)
     assert (str(best.crank.values), str(best.firing_order.values)) == ("0/216/144/72/288", "1-2-4-5-3")
     assert ds.sizes["candidate"] == 8 and ds.attrs["candidates"] == 24
+    assert ds.throw.attrs["units"] == "rad"
+    assert_close_to_scale(best.throw.values, np.radians([0, 216, 144, 72, 288]), 2 * np.pi)
     # Every class trades the first-order couple against the second: all on the front, the least M1 ranked first.
     assert bool(ds.pareto.all())
     assert float(best.moment_amplitude.sel(order=1)) == float(ds.moment_amplitude.sel(order=1).min())
@@ -89,7 +92,7 @@ def test_inline_five_best_moment_arrangement_is_the_72_degree_crank_1_2_4_5_3():
 
 @pytest.mark.parametrize("rank", [1, 2, 17])
 def test_written_candidate_reproduces_the_search_under_analyse(tmp_path, rank):
-    ds = search(ENGINES / "v8-cross-plane-gas.toml", "V", bank=90, stagger=0.011)
+    ds = search(ENGINES / "v8-cross-plane-gas.toml", "V", bank="90 deg", stagger="11 mm")
     text = candidate_text(ds, rank)
     tree = hb.analyse(scene_from_text(text, str(tmp_path / "chosen.toml")))
     one = ds.sel(candidate=rank)
@@ -105,7 +108,7 @@ def test_written_candidate_reproduces_the_search_under_analyse(tmp_path, rank):
 
 @pytest.mark.parametrize(("template", "options"), [
     ("inline-6.toml", {}),
-    ("v8-cross-plane.toml", {"layout": "V", "bank": 90, "stagger": 0.011}),
+    ("v8-cross-plane.toml", {"layout": "V", "bank": math.pi / 2, "stagger": 0.011}),
     ("flat-4.toml", {"layout": "boxer", "cylinders": 6}),
 ])
 def test_every_member_of_a_class_has_the_representatives_metrics(template, options):
@@ -136,15 +139,28 @@ def test_counts_of_the_enumeration():
 
 def test_common_pins_that_cannot_fire_evenly_are_refused_with_the_way_out():
     with pytest.raises(SceneError, match="split the pins or choose a finer grid"):
-        search(ENGINES / "v6-60.toml", "V", bank=60)
-    ds = search(ENGINES / "v6-60.toml", "V", bank=60, split_pins=True)
+        search(ENGINES / "v6-60.toml", "V", bank="60 deg")
+    ds = search(ENGINES / "v6-60.toml", "V", bank="60 deg", split_pins=True)
     assert ds.sizes["candidate"] > 0 and np.all(ds.firing_unevenness.values == 0)
 
 
 def test_uneven_firing_on_a_finer_grid():
-    ds = search(ENGINES / "v6-90-common-pin.toml", "V", bank=90, grid=30)
+    ds = search(ENGINES / "v6-90-common-pin.toml", "V", bank="90 deg", grid="30 deg")
     assert np.any(ds.firing_unevenness.values > 0)
-    assert "firing_unevenness" in str(ds.attrs) or ds.firing_unevenness.max() > 0
+    # Radians in the Dataset: the intervals are whole 30° slots and add up to the cycle.
+    assert ds.firing_unevenness.attrs["units"] == ds.firing_interval.attrs["units"] == "rad"
+    slots = ds.firing_interval.values / math.radians(30)
+    assert np.all(np.abs(slots - np.round(slots)) < 1e-12)  # scale: one slot
+    assert_close_to_scale(ds.firing_interval.sum("firing").values, np.full(ds.sizes["candidate"], 4 * np.pi), 4 * np.pi)
+
+
+def test_angles_in_radians_or_with_units_give_the_same_search():
+    by_units = search(ENGINES / "v6-60.toml", "V", bank="60 deg", split_pins=True)
+    by_number = search(ENGINES / "v6-60.toml", "V", bank=math.radians(60), split_pins=True)
+    assert by_units.identical(by_number)
+    assert by_units.attrs["bank"].tolist() == [-math.radians(30), math.radians(30)]
+    with pytest.raises(SceneError, match="bank"):
+        search(ENGINES / "v6-60.toml", "V", bank="60 mm", split_pins=True)
 
 
 def test_pareto_front():
@@ -165,6 +181,12 @@ def test_cli_search_table_write_and_refusals(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "1-2-4-5-3" in printed and "M1 [N m]" in printed and f"wrote {out}" in printed
     assert load_scene(out).cylinders[1].label == "2"
+    # --bank and --grid in degrees (the API's radians).
+    v8 = tmp_path / "v8.toml"
+    assert main(["search", str(ENGINES / "v8-cross-plane.toml"), "--layout", "V", "--bank", "90", "--stagger",
+                 "0.011", "--top", "1", "--write", str(v8), "--pick", "1"]) == 0
+    assert "0/90/270/180" in capsys.readouterr().out
+    assert 'bank = "-45.0 deg"' in v8.read_text() and 'bank = "45.0 deg"' in v8.read_text()  # whole degrees again
     assert main(["search", str(ENGINES / "inline-5.toml"), "--layout", "V"]) == 2
     assert "a V needs a multiple of 2 cylinders" in capsys.readouterr().err
     assert main(["search", str(ENGINES / "inline-5.toml"), "--write", str(tmp_path / "x.toml"), "--pick", "99"]) == 2

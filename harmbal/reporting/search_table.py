@@ -32,7 +32,7 @@ def search_table(ds, top: int = 10) -> str:
         if gas:
             row.append(_with_order(float(one.gas_nonmajor), float(one.gas_nonmajor_order)))
             row.append(_with_order(float(one.torsional), float(one.torsional_order)))
-        row += [f"{float(one.firing_unevenness):.4g}", str(int(one.class_size))]
+        row += [f"{np.degrees(float(one.firing_unevenness)):.4g}", str(int(one.class_size))]  # rad in the Dataset
         rows.append(row)
     widths = [max(len(c), *(len(r[j]) for r in rows)) for j, c in enumerate(columns)]
     lines = ["  ".join(c.ljust(w) for c, w in zip(columns, widths))]

@@ -8,6 +8,7 @@ and the tables of the classic layouts.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 
@@ -16,6 +17,7 @@ import numpy as np
 from ..orders.spectrum import ZERO_RTOL
 from ..scene import Scene, load_scene
 from ..scene.schema import Problem, SceneError
+from ..scene.units import QuantityError, to_si
 from .search_evaluate import candidate_loads, representative, rotating
 from .search_layouts import (
     Layout,
@@ -24,6 +26,7 @@ from .search_layouts import (
     harmbal_reads_alike,
     make_layout,
     reduce_by_symmetry,
+    snapped_degrees,
     symmetries,
     throws,
 )
@@ -37,12 +40,15 @@ OBJECTIVES = ("moment_1", "moment_2", "force_1", "force_2", "gas_nonmajor", "tor
 #: Objectives closer than this fraction of their scale are equal (round-off is ~1e-15 of it).
 EQUAL = 1e-9
 
+#: A quantity: a plain number (SI) or a string with units (``"60 deg"``, ``"11 mm"``, ``"6000 rpm"``).
+Quantity = float | str
+
 
 def search(scene: Scene | str | os.PathLike, layout: str = "inline", cylinders: int | None = None,
-           cycle: int | None = None, *, bank: float | Sequence[float] | None = None, pitch: float | None = None,
-           stagger: float = 0.0, split_pins: bool = False, grid: float | None = None, speed: float | None = None,
-           symmetry: bool = True, first_order: str = "total", mode_shape: Sequence[float] | None = None,
-           backend: str = "scipy"):
+           cycle: int | None = None, *, bank: Quantity | Sequence[Quantity] | None = None,
+           pitch: Quantity | None = None, stagger: Quantity = 0.0, split_pins: bool = False,
+           grid: Quantity | None = None, speed: Quantity | None = None, symmetry: bool = True,
+           first_order: str = "total", mode_shape: Sequence[float] | None = None, backend: str = "scipy"):
     """Every crank throw arrangement and firing order of a layout, evaluated,
     ranked, and their Pareto front.
 
@@ -58,18 +64,19 @@ def search(scene: Scene | str | os.PathLike, layout: str = "inline", cylinders: 
         Default: the template's.
     cycle : {2, 4}, optional
         Strokes per cycle; default the template's.
-    bank : float or sequence of float, optional
-        The V angle [deg] (default 90) or the W's bank angles [deg].
-    pitch : float, optional
+    bank : float or str, or a sequence of them, optional
+        The V angle [rad] (default π/2) or the W's bank angles [rad]; a
+        plain number is in radians, a string names its units (``"90 deg"``).
+    pitch : float or str, optional
         Throw pitch [m]; default the template's (its first bank's spacing), else 0.1 m.
-    stagger : float
+    stagger : float or str
         V/W: each bank's rod offset along the pin [m].
     split_pins : bool
         V/W/boxer: each cylinder its own throw (the split angles searched too).
-    grid : float, optional
-        Firing slot [deg]; default the even interval (even firing only).
-    speed : float, optional
-        Crank speed [rad/s] of the amplitudes; default the template's highest.
+    grid : float or str, optional
+        Firing slot [rad] (``"30 deg"``); default the even interval (even firing only).
+    speed : float or str, optional
+        Crank speed [rad/s] (``"6000 rpm"``) of the amplitudes; default the template's highest.
     symmetry : bool
         Keep one candidate per symmetry class (rotation is always applied).
     first_order : {"total", "counter"}
@@ -88,15 +95,18 @@ def search(scene: Scene | str | os.PathLike, layout: str = "inline", cylinders: 
     -------
     xarray.Dataset
         Dimension ``candidate`` (coordinate: the rank, 1 = best) with the
-        coordinates ``crank`` and ``firing_order`` (strings); see docs/search.md.
+        coordinates ``crank`` and ``firing_order`` (strings, throws in
+        degrees); angles in radians; see docs/search.md.
     """
     template = scene if isinstance(scene, Scene) else load_scene(scene)
     if first_order not in ("total", "counter"):
         raise SceneError([Problem("search", "first_order", first_order, "must be 'total' or 'counter'")])
     n = len(template.cylinders) if cylinders is None else int(cylinders)
-    lay = make_layout(layout, n, template.cycle if cycle is None else int(cycle), bank=bank,
-                      pitch=_template_pitch(template, layout) if pitch is None else float(pitch), stagger=stagger,
-                      split_pins=split_pins, grid=grid)
+    # The layouts count firing slots in degrees (exact for whole-degree grids): the angles given are converted once.
+    lay = make_layout(layout, n, template.cycle if cycle is None else int(cycle), bank=_bank_degrees(bank),
+                      pitch=_template_pitch(template, layout) if pitch is None else _si(pitch, "pitch", "length"),
+                      stagger=_si(stagger, "stagger", "length"), split_pins=split_pins,
+                      grid=None if grid is None else snapped_degrees(_si(grid, "grid", "angle")))
     raw = template_raw(template)
     raw["engine"]["cycle"] = lay.cycle
     rep = representative(template, raw, lay.bank, backend)
@@ -107,7 +117,7 @@ def search(scene: Scene | str | os.PathLike, layout: str = "inline", cylinders: 
     kept, size, images = reduce_by_symmetry(lay, phases, group)
     phases = phases[kept]
     loads = candidate_loads(lay, rep, phases, np.asarray(template.reference_point, float), _mode_shape(lay, mode_shape))
-    omega = max(template.speeds) if speed is None else float(speed)
+    omega = max(template.speeds) if speed is None else _si(speed, "speed", "speed")
     metrics = _metrics(lay, rep, loads, phases, omega, first_order)
     order = _ranking(metrics, lay, rep, omega)
     ds = _dataset(lay, rep, loads, phases, size, metrics, order, omega)
@@ -115,6 +125,23 @@ def search(scene: Scene | str | os.PathLike, layout: str = "inline", cylinders: 
                         {"long_name": "the other cranks and firing orders of the symmetry class"})
     ds.attrs.update(_attributes(template, lay, raw, (total, len(kept)), group, first_order))
     return ds
+
+
+def _si(value: Quantity, key: str, dimension: str) -> float:
+    """A plain number (SI) or a unit string in SI, refused as a search option if it is neither."""
+    try:
+        return to_si(value.item() if isinstance(value, np.generic) else value, dimension)
+    except QuantityError as exc:
+        raise SceneError([Problem("search", key, value, str(exc))]) from None
+
+
+def _bank_degrees(bank: Quantity | Sequence[Quantity] | None) -> float | tuple[float, ...] | None:
+    """The V angle or the W's bank angles, given in radians or with units, in degrees (:func:`snapped_degrees`)."""
+    if bank is None:
+        return None
+    if isinstance(bank, (str, float, int, np.number)):
+        return snapped_degrees(_si(bank, "bank", "angle"))
+    return tuple(snapped_degrees(_si(b, "bank", "angle")) for b in bank)
 
 
 def _mode_shape(lay: Layout, given: Sequence[float] | None) -> np.ndarray:
@@ -244,13 +271,15 @@ def _dataset(lay: Layout, rep, loads, phases: np.ndarray, size: np.ndarray, metr
                 "firing_order": ("candidate", firing[pick]), "cylinder": labels,
                 "order": np.arange(rep.max_order + 1), "rotation": ["co", "counter"],
                 "firing": np.arange(1, lay.cylinders + 1), "speed": omega, "rpm": omega * 30 / np.pi})
-    ds["throw"] = (("candidate", "cylinder"), throw[pick], {"units": "deg", "long_name": "throw angle (throw 1 at 0)"})
-    ds["firing_phase"] = (("candidate", "cylinder"), (phases * lay.grid)[pick],
-                          {"units": "deg", "long_name": "crank angle from cylinder 1's firing to this one's"})
-    ds["firing_interval"] = (("candidate", "firing"), metrics["firing_interval"][pick],
-                             {"units": "deg", "long_name": "crank angle from each firing to the next, in firing order"})
-    ds["firing_unevenness"] = ("candidate", metrics["firing_unevenness"][pick],
-                               {"units": "deg", "long_name": "largest deviation of an interval from the even one"})
+    # The layouts' angles are in degrees; the Dataset's in radians (SI).
+    ds["throw"] = (("candidate", "cylinder"), np.radians(throw[pick]),
+                   {"units": "rad", "long_name": "throw angle (throw 1 at 0)"})
+    ds["firing_phase"] = (("candidate", "cylinder"), np.radians((phases * lay.grid)[pick]),
+                          {"units": "rad", "long_name": "crank angle from cylinder 1's firing to this one's"})
+    ds["firing_interval"] = (("candidate", "firing"), np.radians(metrics["firing_interval"][pick]),
+                             {"units": "rad", "long_name": "crank angle from each firing to the next, in firing order"})
+    ds["firing_unevenness"] = ("candidate", np.radians(metrics["firing_unevenness"][pick]),
+                               {"units": "rad", "long_name": "largest deviation of an interval from the even one"})
     for name, units in (("force", "N"), ("moment", "N m")):
         ds[f"{name}_rotating"] = (("candidate", "order", "rotation"), metrics[f"{name}_rotating"][pick],
                                   {"units": units, "long_name": f"free {name}'s co- and counter-rotating phasors"})
@@ -319,15 +348,17 @@ def _crank_strings(lay: Layout, throw: np.ndarray) -> np.ndarray:
 
 def _attributes(template: Scene, lay: Layout, raw: dict, counts: tuple[int, int], group: list,
                 first_order: str) -> dict:
-    """The Dataset's attributes: the template (its text, to write a candidate), the layout, the counts."""
+    """The Dataset's attributes: the template (its text, to write a candidate), the layout (angles [rad],
+    positions [m]), the counts."""
     import tomli_w
 
     return {"title": f"harmbal crank and firing search: {lay.family} {lay.cylinders}, {lay.cycle}-stroke",
             "template": template.source, "template_toml": tomli_w.dumps(raw),
             "template_files": repr(dict(template.files)),
             "layout": lay.family, "cylinders": lay.cylinders, "cycle_strokes": lay.cycle,
-            "bank": np.unique(lay.bank), "axial_position": lay.x, "cylinder_bank": lay.bank,
-            "split_pins": "yes" if lay.split else "no", "grid": lay.grid, "even_interval": lay.even_interval,
+            "bank": np.radians(np.unique(lay.bank)), "axial_position": lay.x, "cylinder_bank": np.radians(lay.bank),
+            "split_pins": "yes" if lay.split else "no", "grid": math.radians(lay.grid),
+            "even_interval": math.radians(lay.even_interval),
             "candidates": counts[0], "classes": counts[1], "symmetries": " ".join(["rotation"] + [g[2] for g in group]),
             "first_order": first_order, "rotation": template.rotation,
             "reference_point": np.asarray(template.reference_point, float)}
@@ -349,7 +380,9 @@ def candidate_text(ds, rank: int = 1) -> str:
     name = f"{raw['engine'].get('name', 'engine')} search {rank}"
     description = (f"{ds.attrs['layout']} {ds.attrs['cylinders']}, crank {one.crank.values}, firing order "
                    f"{one.firing_order.values} (harmbal search, rank {rank} of {ds.sizes['candidate']})")
-    out = candidate_raw(raw, throws=one.throw.values, banks=np.asarray(ds.attrs["cylinder_bank"]),
+    # Written in degrees, as the layouts counted them (216.0, not 216.00000000000003).
+    out = candidate_raw(raw, throws=np.array([snapped_degrees(t) for t in one.throw.values]),
+                        banks=np.array([snapped_degrees(b) for b in np.atleast_1d(ds.attrs["cylinder_bank"])]),
                         x=np.asarray(ds.attrs["axial_position"]), firing_order=order, name=name[:200],
                         description=description)
     header = (f"# Written by harmbal search from {ds.attrs['template']}: {description}.\n"

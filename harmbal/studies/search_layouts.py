@@ -91,6 +91,17 @@ class Layout:
         return [np.flatnonzero(self.pin == p) for p in range(int(self.pin.max()) + 1)]
 
 
+def snapped_degrees(radians: float) -> float:
+    """An angle [rad] in degrees, as the decimal of 15 significant digits when
+    that is within round-off of it (90° given as ``math.radians(90)`` or
+    ``"90 deg"`` is 90 exactly in the slot arithmetic and the scene text),
+    else as converted."""
+    degrees = math.degrees(float(radians))
+    decimal = float(f"{degrees:.15g}")
+    # Degrees to radians and back moves a value by at most eps relative (checked for every 0.01° to 720°).
+    return decimal if abs(decimal - degrees) <= 2 * np.finfo(float).eps * abs(degrees) else degrees
+
+
 def _refuse(key: str, value, rule: str) -> SceneError:
     return SceneError([Problem("search", key, value, rule)])
 

@@ -122,3 +122,20 @@ def test_cli_prints_and_writes(tmp_path, capsys):
 def test_cli_refuses_a_scene_without_mounts(capsys):
     assert main(["mounts", str(ENGINES / "inline-4.toml")]) == 2
     assert "[powertrain]" in capsys.readouterr().err
+
+
+def test_the_spinning_inertia_defaults_to_the_flywheels():
+    from harmbal.scene import scene_from_text
+    from harmbal.views.mounts import operating
+
+    text = TRACTOR.read_text(encoding="utf-8")
+    given = scene_from_text(text, str(TRACTOR))
+    assert operating(given).spinning_inertia == pytest.approx(1.6, rel=1e-15)
+    lines = [line for line in text.splitlines() if not line.startswith("spinning_inertia")]
+    without = scene_from_text("\n".join(lines), str(TRACTOR))
+    assert without.powertrain.spinning_inertia is None and operating(without).spinning_inertia == 0.0
+    flywheel = scene_from_text("\n".join(lines) + '\n[flywheel]\ninertia = "2.5 kg m^2"\n', str(TRACTOR))
+    assert operating(flywheel).spinning_inertia == pytest.approx(2.5, rel=1e-15)
+    with pytest.raises(hb.SceneError, match="spinning_inertia"):
+        scene_from_text(text.replace('spinning_inertia = "1.6 kg m^2"', 'spinning_inertia = "-1 kg m^2"'),
+                           str(TRACTOR))

@@ -109,8 +109,11 @@ def planar_basis(model: Model, cylinders, psi: np.ndarray) -> np.ndarray | None:
         # 1 kg on the pin axis (no lateral CG), times the rod's share there.
         sums[1].add(on_axis, small_end)
     if "rotating" in effects:
-        pin, _, _ = crank_pin(psi, r)
-        sums[1].add(loads.rotating_rod(pin, 1.0), 1.0 - small_end)
+        # The crank pin is the slider-crank's A when it was made; the big end's load is radial (no roll, no power),
+        # so only its forces are added: the same sums as of loads.rotating_rod(pin, 1.0), without its zeros.
+        pin = kin.a if kin is not None else crank_pin(psi, r)[0]
+        rotating = 1.0 - small_end
+        sums[1].add_forces(rotating * pin[0], rotating * pin[1])
     if "rod_inertia" in effects and model.rod != "two_point":
         lateral = g.rod_lateral
         off_axis = model.rod == "rigid" and bool(np.any(lateral))
@@ -136,12 +139,18 @@ class _Sum:
             term = values if scale is None else scale * values
             self.parts[i] = term if self.parts[i] is None else self.parts[i] + term
 
+    def add_forces(self, force_c: np.ndarray, force_n: np.ndarray) -> None:
+        """Add a load that has forces alone (no roll moment, no power), already scaled."""
+        for i, term in enumerate((force_c, force_n)):
+            self.parts[i] = term if self.parts[i] is None else self.parts[i] + term
+
     def into(self, out: np.ndarray, mass_torque: bool) -> None:
         """Write the force along and across the axis and the roll moment (with the power if ``mass_torque``) into
         ``out`` (3, row, angle)."""
         force_c, force_n, roll, power = self.parts
-        if roll is not None and mass_torque:
-            roll = roll + power
+        if roll is not None and mass_torque and power is not None:
+            np.add(roll, power, out=out[2])
+            roll = None
         for i, values in enumerate((force_c, force_n, roll)):
             if values is not None:
                 out[i] = values

@@ -271,8 +271,13 @@ def evaluate_chunked(plan: Plan, options: BlockOptions, chunk: int) -> dict:
     template = evaluate_block(plan, 0, 1, options)
     shared = dask.delayed(plan, traverse=False)  # one copy of the bases in the graph, not one per chunk
     evaluate = dask.delayed(evaluate_block, pure=True)
+
+    def task(start: int, stop: int):
+        # A chunk of a Monte Carlo run of its own geometries carries its own samples alone (Plan.part).
+        part, first, last = plan.part(start, stop)
+        return evaluate(shared if part is plan else dask.delayed(part, traverse=False), first, last, options)
+
     starts = range(0, count, chunk)
-    blocks = [(evaluate(shared, start, min(start + chunk, count), options), min(start + chunk, count) - start)
-              for start in starts]
+    blocks = [(task(start, min(start + chunk, count)), min(start + chunk, count) - start) for start in starts]
     return {name: da.concatenate([da.from_delayed(task[name], (size,) + t.shape[1:], dtype=t.dtype)
                                   for task, size in blocks]) for name, t in template.items()}

@@ -66,7 +66,8 @@ class Plan:
     variants: Variants
     combos: np.ndarray                   # sorted flat numbers of the geometry combinations, one per geometry
     bases: GeometryPhasors | None        # every geometry's phasors; None: each block evaluates its own
-    base_slots: np.ndarray               # (geometry, slot) the slot values each geometry was read with
+    base_slots: np.ndarray               # (geometry, slot) the slot values each geometry was read with, or
+    #                                      (1, slot) shared by every geometry (field keys move no slot; small to ship)
     sense: int
     designs: list[DesignBasis] | None    # one per geometry, if the sweep designs the balancers
     fields: FieldMap | None = None       # the geometry keys as arrays (None: each geometry read as a scene)
@@ -84,12 +85,24 @@ class Plan:
             group = np.searchsorted(self.combos, self.variants.combination(index, columns))
         else:
             group = np.zeros(len(index), dtype=int)
-        slots = self.base_slots[group]
+        slots = np.repeat(self.base_slots, len(group), axis=0) if len(self.base_slots) == 1 else self.base_slots[group]
         coords = {k: self.si[k][index[:, i]] for i, k in enumerate(self.keys)}
         for key, coefficients in self.linear.items():
             for s, a in coefficients.items():
                 slots[:, s] = coords[key] if a == 1.0 else a * coords[key]
         return group, slots, coords
+
+    def part(self, start: int, stop: int) -> tuple[Plan, int, int]:
+        """What the variants ``start`` … ``stop - 1`` need of the plan, and where they lie in it: of a
+        Monte Carlo run (zip) whose blocks evaluate their own geometries, a plan of those samples alone (the
+        whole plan holds every key's value of every sample: a dask task of 10⁵ of 10⁶ samples would carry
+        ten times what it reads); of any other plan the plan itself."""
+        if self.variants.mode != "zip" or self.bases is not None or self.gas is not None or self.designs:
+            return self, start, stop
+        size = stop - start
+        return replace(self, si={k: v[start:stop].copy() for k, v in self.si.items()},
+                       variants=Variants((size,) * len(self.variants.lengths), "zip"),
+                       combos=np.arange(size) if self.geometry else self.combos), 0, size
 
     def block_bases(self, group: np.ndarray) -> tuple[GeometryPhasors, np.ndarray]:
         """The phasors of the geometries ``group`` (variant,) of a block and
@@ -328,7 +341,7 @@ def _vector_geometries(reader: SceneVariants, keys: KeyValues, si: dict, fields:
         check_budget(scene, "sweep", sweep={**budget, "geometries": count, "geometry_key": ", ".join(fields.keys),
                                             "vectorised": not options.design, "eager": eager})
     samples = check_geometries(reader, fields, keys.values, si, variants, columns, combos)
-    slots = np.broadcast_to(slot_values(scene)[1], (count, slot_count))
+    slots = slot_values(scene)[1][None]  # one row for every geometry (Plan.base_slots)
     distinct = tuple(int(n) for n in np.unique(samples))
     if not eager:
         if options.progress is not None:

@@ -573,11 +573,6 @@ def constant_mount_forces(axes, transforms, stiffness, damping, Omega, Q) -> np.
     return force.reshape(q.shape[:-1] + (r.shape[0], 3))
 
 
-def transmitted_forces(transforms, axes, local, Q) -> np.ndarray:
-    """:func:`mount_forces_local` with the arguments in the order of :func:`dynamic_matrix` -> (..., n, 3)."""
-    return mount_forces_local(axes, local, transforms, Q)
-
-
 def loads_about(point, reference, force, moment) -> np.ndarray:
     """The moment about ``point`` of a force and moment given about ``reference``: M + (r − p) × F (..., 3)."""
     arm = np.asarray(reference, dtype=float) - np.asarray(point, dtype=float)

@@ -444,7 +444,7 @@ def _response(system: MountSystem, loads: Excitation, speeds: Speeds, sense: int
         q = rigid.forced_response(system.mass_matrix, rigid.dynamic_matrix(system.transforms, system.axes, stiffness),
                                   frequency, excitation.about(system.cg, omega),
                                   rigid.gyroscopic_matrix(spin * omega[:, None]))
-        force = rigid.transmitted_forces(system.transforms, system.axes, stiffness, q)  # (speed, order, n, 3)
+        force = rigid.mount_forces_local(system.axes, stiffness, system.transforms, q)  # (speed, order, n, 3)
     else:  # constant matrices: one eigenbasis per order serves every speed
         q = rigid.order_response(system.mass_matrix, system.stiffness_matrix + 1j * system.loss_matrix,
                                  system.damping_matrix, spin, excitation.orders, omega,

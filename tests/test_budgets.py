@@ -163,6 +163,9 @@ BOUNDED = {
     "loads of 32 cylinders": lambda: hb.loads(_scene(_engine(32))),
     "loads at 500 speeds": (
         lambda: hb.loads(_scene(_engine(speed='{ from = "600 rpm", to = "8000 rpm", points = 500 }')))),
+    "analyse with mounts at 3000 speeds": (
+        lambda: hb.analyse(_scene((ENGINES / "tractor-3cyl-mounts.toml").read_text(encoding="utf-8").replace(
+            "points = 167", "points = 3000")))),
     "sweep of 1e5 variants": (
         lambda: hb.sweep(_scene(INLINE4), {"piston.mass": np.linspace(0.3, 0.5, 100_000)}, orders=[1, 2],
                          phasors=False)),

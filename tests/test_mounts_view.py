@@ -139,3 +139,17 @@ def test_the_spinning_inertia_defaults_to_the_flywheels():
     with pytest.raises(hb.SceneError, match="spinning_inertia"):
         scene_from_text(text.replace('spinning_inertia = "1.6 kg m^2"', 'spinning_inertia = "-1 kg m^2"'),
                            str(TRACTOR))
+
+
+def test_the_library_refuses_a_response_over_the_budget(monkeypatch):
+    """20 000 speeds × 24 orders of response: refused under a 300 MiB budget, naming the speeds, before the
+    evaluation (which alone fits) is even made."""
+    from harmbal.model import budget
+    from harmbal.scene import scene_from_text
+
+    text = TRACTOR.read_text(encoding="utf-8").replace("points = 167", "points = 20000")
+    scene = scene_from_text(text, str(TRACTOR))
+    monkeypatch.setattr(budget, "memory_budget", lambda: 300 * 2**20)
+    assert budget.estimate(scene, "evaluate", samples=4096).bytes < 300 * 2**20
+    with pytest.raises(hb.SceneError, match="engine.speed.*mounts' response"):
+        hb.mounts(scene)

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..labelled import Speeds, dataset
 from ..model import mounts as rigid
+from ..model.budget import check_budget
 from ..orders.spectrum import ROTATION, transverse_split
 from ..scene import Scene
 from ..scene.mounts import Mount, MountTable, Powertrain
@@ -210,9 +211,13 @@ def mounts(scene: Scene, *, backend: str = "scipy"):
     ------
     ValueError
         If the scene has no mounts.
+    SceneError
+        If it would need more memory or time than the budget
+        (:func:`harmbal.model.budget.check_budget`, docs/scenes.md "Budgets").
     """
     if scene.powertrain is None or not scene.mounts:
         raise ValueError(f"{scene.source}: the scene has no [powertrain] and [[mount]] tables (docs/mounts.md)")
+    check_budget(scene, "mounts")  # refused before anything is allocated if over the memory or time budget
     loads, attrs = mount_loads(scene, backend=backend)
     return mounts_dataset(mount_system(scene.powertrain, scene.mounts), loads, Speeds(scene.speeds), attrs,
                           operating(scene))

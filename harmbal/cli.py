@@ -197,6 +197,14 @@ def _add_mounts_command(commands) -> argparse.ArgumentParser:
     mounts.add_argument("--name", help="engine.name of the designed scene (default: the input's)")
     mounts.add_argument("--partial", action="store_true",
                         help="with --design, write the best design found even if it misses a constraint")
+    mounts.add_argument("--monte-carlo", type=_positive_int, metavar="N",
+                        help="draw N mount sets with the --tol stiffness tolerances: percentiles of the modes, "
+                             "their decoupling and the peak transmitted forces")
+    mounts.add_argument("--tol", action="append", type=_tolerance, default=[], metavar="KEY=DIST",
+                        help="with --monte-carlo: a stiffness's scatter, KEY mount[I].stiffness[J] (J = 1, 2, 3 for "
+                             "u, v, w; a * for every mount or axis), DIST normal:SIGMA or uniform:LOW:HIGH "
+                             "(deviations, N/m or with units, or in percent: 'normal:10 %%') or classes:V1@P1,...")
+    mounts.add_argument("--seed", type=int, help="seed of the Monte Carlo draws (same seed, same results)")
     mounts.add_argument("--backend", choices=("scipy", "numpy", "pyfftw"), default="scipy", help="FFT backend")
     mounts.set_defaults(handler=_mounts)
     return mounts
@@ -511,7 +519,9 @@ def _mounts(args) -> None:
     _budget(scene, "mounts", output=args.output is not None)
     from .reporting.mount_tables import mounts_table
 
-    if args.design is None:
+    if args.monte_carlo is not None:
+        _mount_monte_carlo(args, scene)
+    elif args.design is None:
         from .views.mounts import mounts
 
         print(mounts_table(mounts(scene, backend=args.backend)))
@@ -525,6 +535,34 @@ def _mounts(args) -> None:
         tree.attrs.update(_provenance(args))
         save(tree, args.output)
         print(f"\nwrote {args.output}")
+
+
+def _mount_monte_carlo(args, scene) -> None:
+    """``harmbal mounts --monte-carlo N --tol ...``: the percentile table of the mounts' scatter."""
+    from .reporting.mount_tables import mount_monte_carlo_table
+    from .studies.mount_tolerances import mount_monte_carlo
+
+    if not args.tol:
+        raise _BadInput("--monte-carlo needs at least one --tol mount[I].stiffness[J]=DIST")
+    if args.design is not None:
+        raise _BadInput("--monte-carlo and --design: one at a time")
+    tolerances: dict = {}
+    for key, distribution in args.tol:
+        for expanded in _mount_keys(key, scene):
+            tolerances[expanded] = distribution
+    print(mount_monte_carlo_table(mount_monte_carlo(scene, tolerances, args.monte_carlo, seed=args.seed,
+                                                    backend=args.backend)))
+
+
+def _mount_keys(key: str, scene) -> list[str]:
+    """``mount[*].stiffness[*]`` and the like: the key for every mount and axis a ``*`` stands for."""
+    if "*" not in key:
+        return [key]
+    mounts = [str(i) for i in range(1, len(scene.mounts) + 1)]
+    keys = [key]
+    for choices in (mounts, ["1", "2", "3"]):
+        keys = [k.replace("[*]", f"[{c}]", 1) for k in keys for c in (choices if "[*]" in k else [""])]
+    return [k for k in keys if "[]" not in k]
 
 
 def _design_mounts(args, scene) -> None:

@@ -153,3 +153,13 @@ def test_the_library_refuses_a_response_over_the_budget(monkeypatch):
     assert budget.estimate(scene, "evaluate", samples=4096).bytes < 300 * 2**20
     with pytest.raises(hb.SceneError, match="engine.speed.*mounts' response"):
         hb.mounts(scene)
+
+
+def test_cli_monte_carlo_of_the_stiffness_tolerances(capsys):
+    args = ["mounts", str(TRACTOR), "--monte-carlo", "40", "--tol", "mount[*].stiffness[3]=normal:10 %", "--seed", "3"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert text.count("Normal(sigma='10 %')") == 4 and "mount[4].stiffness[3]" in text and "P95" in text
+    assert main(args) == 0 and capsys.readouterr().out == text  # the same seed, the same table
+    assert main(["mounts", str(TRACTOR), "--monte-carlo", "40"]) == 2
+    assert "--tol" in capsys.readouterr().err

@@ -118,3 +118,25 @@ def mount_design_table(result) -> str:
 
 #: SI units of design variables and constraints -> (factor, the unit shown).
 _SHOWN = {"N/m": (1e-3, "N/mm"), "m": (1e3, "mm"), "rad": (180 / np.pi, "deg"), "1": (1.0, "")}
+
+
+def mount_monte_carlo_table(mc) -> str:
+    """Percentiles of the modes, their decoupling, the TRA angle and the peak transmitted force per mount of a
+    mount Monte Carlo run (:func:`harmbal.mount_monte_carlo`)."""
+    p = [f"P{v:g}" for v in mc["percentile"].values]
+    lines = [f"{mc.attrs.get('title', 'mount Monte Carlo')}: {mc.attrs['samples']} samples, seed {mc.attrs['seed']}",
+             *(f"  {t}" for t in mc.attrs["tolerances"]), "",
+             f"  {'mode':<6}" + "".join(f"{'f ' + q + ' [Hz]':>14}" for q in p)
+             + "".join(f"{'decoupl. ' + q:>14}" for q in p)]
+    frequency, share = mc["natural_frequency_percentile"].values, mc["decoupling_percentile"].values
+    for j, mode in enumerate(mc["mode"].values):
+        lines.append(f"  {int(mode):<6}" + "".join(f"{f:>14.4g}" for f in frequency[:, j])
+                     + "".join(f"{d:>14.3f}" for d in share[:, j]))
+    angle = np.degrees(mc["tra_roll_mode_angle_percentile"].values)
+    lines += ["", "  angle between the TRA and the roll mode [deg]: " + ", ".join(
+        f"{q} {a:.3g}" for q, a in zip(p, angle)), "",
+        f"  {'mount':<16}" + "".join(f"{'peak |f| ' + q + ' [N]':>18}" for q in p)]
+    force = mc["peak_transmitted_force_percentile"].values
+    for m, name in enumerate(mc["mount"].values):
+        lines.append(f"  {str(name):<16}" + "".join(f"{v:>18.5g}" for v in force[:, m]))
+    return "\n".join(lines)

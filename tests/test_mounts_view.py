@@ -163,3 +163,14 @@ def test_cli_monte_carlo_of_the_stiffness_tolerances(capsys):
     assert main(args) == 0 and capsys.readouterr().out == text  # the same seed, the same table
     assert main(["mounts", str(TRACTOR), "--monte-carlo", "40"]) == 2
     assert "--tol" in capsys.readouterr().err
+
+
+def test_a_mount_monte_carlo_over_the_time_budget_is_refused(monkeypatch):
+    from harmbal.model import budget
+
+    scene = hb.load_scene(TRACTOR)
+    monkeypatch.setattr(budget, "time_budget", lambda: 60.0)
+    estimate = budget.estimate(scene, "mounts", mount_samples=100_000)
+    assert estimate.seconds > 60 > budget.estimate(scene, "mounts", mount_samples=100).seconds
+    with pytest.raises(hb.SceneError, match="100000 samples"):
+        hb.mount_monte_carlo(scene, {"mount[1].stiffness[3]": hb.Normal("10 %")}, 100_000)

@@ -390,7 +390,7 @@ COMMANDS = ("evaluate", "analyse", "run", "stars", "report", "verify", "design",
 
 
 def estimate(scene: Scene, command: str = "analyse", *, output: bool = False, analysed: bool = False,
-             samples: int | None = None, sweep: dict | None = None) -> Estimate:
+             samples: int | None = None, sweep: dict | None = None, mount_samples: int = 0) -> Estimate:
     """The cost of a command on ``scene``, before anything is computed.
 
     Parameters
@@ -410,6 +410,9 @@ def estimate(scene: Scene, command: str = "analyse", *, output: bool = False, an
         ``evaluate``: the samples per revolution.
     sweep : dict, optional
         ``sweep``: :func:`sweep_terms`' keywords.
+    mount_samples : int
+        ``mounts``: the mount sets of a Monte Carlo run of the stiffnesses
+        (:func:`harmbal.mount_monte_carlo`), each solved at every speed and order.
 
     Returns
     -------
@@ -432,6 +435,8 @@ def estimate(scene: Scene, command: str = "analyse", *, output: bool = False, an
         terms = [*_loads_terms(scene, size), _trace_term(size)]
     else:
         terms = _command_terms(scene, _sizes(scene), command, output, analysed)
+        if mount_samples:
+            terms.append(_mount_samples_term(_sizes(scene), mount_samples))
     return Estimate(doing, tuple(t for t in terms if t is not None), scene)
 
 
@@ -470,6 +475,21 @@ def _command_terms(scene: Scene, size: _Sizes, command: str, output: bool, analy
 _MOUNTS_PER_SPEED_ORDER = 16.0 * 6 * 3
 _MOUNT_PER_SPEED_ORDER = 16.0 * 3 * 4
 _MOUNTS_SECONDS = 2e-6  # per speed and order (batched 6x6 solves and einsums)
+
+
+#: A mount Monte Carlo's seconds per sample, speed and order (one direct 6x6 solve and its forces; measured:
+#: the tractor's 500 samples x 167 speeds x 24 orders in 4.4 s, 2.2 µs each) and its memory: chunks of
+#: 65 536 systems (studies.mount_tolerances.CHUNK_SYSTEMS) with their stiffnesses and forces.
+_MOUNT_SAMPLE_SECONDS = 3e-6
+_MOUNT_SAMPLE_CHUNK_BYTES = 65536 * 16.0 * (36 + 6 + 12 * 3)
+
+
+def _mount_samples_term(size: _Sizes, samples: int) -> Term:
+    """The mount Monte Carlo: every sample's response at every speed and order, a chunk at a time."""
+    count = samples * size.speeds * size.orders * size.revolutions
+    return Term("samples", f"{samples} samples", f"{samples} mount sets × {size.speeds} speeds × "
+                f"{size.orders * size.revolutions} orders", _MOUNT_SAMPLE_CHUNK_BYTES, _MOUNT_SAMPLE_SECONDS * count,
+                "draw fewer samples or give the scene fewer speeds")
 
 
 def _mounts_term(size: _Sizes, mounts: int, points: int) -> Term:

@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..model import mounts as rigid
+from ..model.budget import check_budget
 from ..scene import Scene, SceneError
 from ..scene.units import QuantityError, to_si
 from ..views.mounts import DOF, Excitation, MountSystem, Operating, mount_loads, mount_system, operating, static_cases
@@ -98,6 +99,7 @@ def mount_monte_carlo(scene: Scene, tolerances: Mapping[str, Normal | Uniform | 
         raise ValueError(f"samples must be a positive integer: {samples!r}")
     if not tolerances:
         raise ValueError("give at least one toleranced key")
+    check_budget(scene, "mounts", mount_samples=int(samples))  # refused before any sample is drawn
     system = mount_system(scene.powertrain, scene.mounts)
     stiffness, drawn = _draw_stiffness(scene, system, tolerances, int(samples), np.random.default_rng(seed))
     rigid.require_constrained(system.stiffness_matrix)

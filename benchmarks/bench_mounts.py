@@ -108,12 +108,10 @@ def _response_inputs(scene):
     the circular frequencies (speed, order)."""
     import numpy as np
 
-    from harmbal.views.mounts import Excitation, mount_loads, mount_system
+    from harmbal.views.mounts import mount_loads, mount_system
 
     loads, _ = mount_loads(scene)
-    keep = loads.orders > 0
-    positive = Excitation(loads.orders[keep], loads.force[keep], loads.moment[keep],
-                          None if loads.moment_constant is None else loads.moment_constant[keep], loads.reference)
+    positive = loads.positive()
     speeds = np.asarray(scene.speeds)
     system = mount_system(scene.powertrain, scene.mounts)
     return system, positive, speeds
@@ -136,10 +134,8 @@ def _direct(system, loads, speeds):
     from harmbal.model import mounts as rigid
 
     frequency = speeds[:, None] * loads.orders[None, :]
-    local = system.local_stiffness(frequency)
-    stiffness = rigid.system_matrix_from_local(rigid.projected_matrices(system.axes, system.transforms), local)
-    q = rigid.forced_response(system.mass_matrix, stiffness, frequency, loads.about(system.cg, speeds))
-    return rigid.mount_forces_local(system.axes, local, system.transforms, q)
+    return rigid.direct_response(system.mass_matrix, system.axes, system.transforms,
+                                 system.local_stiffness(frequency), frequency, loads.about(system.cg, speeds))[1]
 
 
 def _dataset(scene):

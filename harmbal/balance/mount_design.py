@@ -64,6 +64,7 @@ from ..views.mounts import (
     mounts,
     mounts_dataset,
     operating,
+    static_cases,
 )
 from .solvers import DesignError
 
@@ -414,18 +415,14 @@ class _Problem:
                  speeds: np.ndarray):
         assert scene.powertrain is not None
         self.powertrain, self.mounts, self.request, self.op = scene.powertrain, scene.mounts, request, op
-        keep = loads.orders > 0
-        positive = Excitation(loads.orders[keep], loads.force[keep], loads.moment[keep],
-                              None if loads.moment_constant is None else loads.moment_constant[keep], loads.reference)
+        positive = loads.positive()
         self.cg = np.asarray(scene.powertrain.cg, dtype=float)
         self.load = positive.about(self.cg, speeds)  # (speed, order, 6)
         self.omega = speeds[:, None] * positive.orders[None, :]
-        # The spinning parts' gyroscopic moment, as /mounts has it (per crank speed, the same for every order).
-        self.gyroscopic = rigid.gyroscopic_matrix(op.sense * op.spinning_inertia * speeds[:, None])
+        self.gyroscopic = op.gyroscopic(speeds)  # the spinning parts' moment, as /mounts has it
         self.torque = _torque_case(scene, request, loads, op)
         self.tra = rigid.torque_roll_axis(np.asarray(scene.powertrain.inertia, dtype=float))
-        firing = op.idle_speed / (2 * np.pi) * op.major_order
-        self.band = request.frequency_band or (BAND_LOW, firing / math.sqrt(2))
+        self.band = request.frequency_band or (BAND_LOW, op.idle_firing_frequency / math.sqrt(2))
         self._cache: dict[bytes, _Metrics] = {}
 
     def metrics(self, mount_set: tuple[Mount, ...]) -> _Metrics:
@@ -435,11 +432,8 @@ class _Problem:
         frequency, shapes = rigid.modes(M, K)
         energy = rigid.energy_distribution(M, shapes)
         roll = math.nan if self.torque is None else float(np.linalg.solve(K, self.torque)[3])
-        stiffness = system.local_stiffness(self.omega)
-        projections = rigid.projected_matrices(system.axes, system.transforms)
-        q = rigid.forced_response(M, rigid.system_matrix_from_local(projections, stiffness), self.omega, self.load,
-                                  self.gyroscopic)
-        force = rigid.mount_forces_local(system.axes, stiffness, system.transforms, q)
+        _, force = rigid.direct_response(M, system.axes, system.transforms, system.local_stiffness(self.omega),
+                                         self.omega, self.load, self.gyroscopic)
         rms = math.sqrt(float((np.abs(force) ** 2).sum(axis=(-1, -2)).mean()))
         return _Metrics(frequency, energy.max(axis=0), energy.argmax(axis=0), roll,
                         float(rigid.tra_angle(self.tra, shapes, energy)), rms)
@@ -468,19 +462,17 @@ class _Problem:
 
 def _torque_case(scene: Scene, request: MountDesignRequest, loads: Excitation, op: Operating) -> np.ndarray | None:
     """The static load (6,) of the weight and the full-load torque (else the
-    mean gas torque), or None when neither is known."""
+    mean gas torque): :func:`~harmbal.views.mounts.static_cases`' case; None
+    when neither torque is known."""
     assert scene.powertrain is not None
-    weight = np.concatenate([scene.powertrain.mass * np.asarray(scene.powertrain.gravity, dtype=float), np.zeros(3)])
-    if op.drive_torque is not None:
-        torque = -op.sense * op.drive_torque  # the block reacts the torque that drives the crank
-    elif loads.moment_constant is not None:
-        torque = loads.mean_torque()
-    elif request.max_static_roll is not None:
+    cases = static_cases(mount_system(scene.powertrain, scene.mounts), loads, op)
+    for name in ("weight+full_load", "weight+mean_torque"):
+        if name in cases:
+            return cases[name]
+    if request.max_static_roll is not None:
         raise DesignError(f"{scene.source}: mount_design.max_static_roll: the scene has neither gas nor "
                           "powertrain.drive_torque: give drive_torque, or leave max_static_roll out")
-    else:
-        return None
-    return weight + np.array([0.0, 0.0, 0.0, torque, 0.0, 0.0])
+    return None
 
 
 def _optimise(problem: _Problem, params: list[_Parameter], z0: np.ndarray, latin: int,

@@ -190,6 +190,17 @@ def dynamic_matrix(transforms, axes, local) -> np.ndarray:
     return system_matrix_from_local(projected_matrices(axes, transforms), local)
 
 
+def direct_response(M, axes, transforms, local, Omega, loads, gyroscopic=None) -> tuple[np.ndarray, np.ndarray]:
+    """Q (..., 6) and the mounts' forces into the frame (..., n, 3) of local
+    stiffnesses (..., n, 3) at frequencies ``Omega`` (...) under ``loads``
+    (..., 6): the system matrix from :func:`projected_matrices`, one
+    :func:`forced_response` per system (the path of any mount set, tables
+    included), :func:`mount_forces_local`."""
+    stiffness = system_matrix_from_local(projected_matrices(axes, transforms), local)
+    q = forced_response(M, stiffness, Omega, loads, gyroscopic)
+    return q, mount_forces_local(axes, local, transforms, q)
+
+
 def require_constrained(K) -> None:
     """Raise ValueError when the stiffness (6, 6) leaves a direction free or is not positive semi-definite.
 

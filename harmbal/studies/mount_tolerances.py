@@ -210,23 +210,19 @@ def _static_roll(system: MountSystem, stiffness: np.ndarray, cases: dict[str, np
 def _peak_forces(system: MountSystem, stiffness: np.ndarray, loads: Excitation, speeds: np.ndarray,
                  op: Operating) -> dict[str, np.ndarray]:
     """The largest transmitted-force amplitude over the speeds, per sample, order and mount."""
-    keep = loads.orders > 0
-    positive = Excitation(loads.orders[keep], loads.force[keep], loads.moment[keep],
-                          None if loads.moment_constant is None else loads.moment_constant[keep], loads.reference)
+    positive = loads.positive()
     load = positive.about(system.cg, speeds)  # (speed, order, 6)
     omega = speeds[:, None] * positive.orders[None, :]
     k, eta = system.elastic(omega)  # (speed, order, n, 3)
-    projections = rigid.projected_matrices(system.axes, system.transforms)
-    gyroscopic = rigid.gyroscopic_matrix(op.sense * op.spinning_inertia * speeds[:, None])  # as /mounts has it
+    gyroscopic = op.gyroscopic(speeds)  # as /mounts has it
     factor = stiffness / system.stiffness  # (sample, n, 3): the tables scale with the nominal stiffness
     chunk = max(1, CHUNK_SYSTEMS // omega.size)
     peaks = []
     for start in range(0, len(stiffness), chunk):
         scaled = factor[start:start + chunk, None, None] * k
         local = rigid.local_stiffness(scaled, eta, system.damping, omega)
-        q = rigid.forced_response(system.mass_matrix, rigid.system_matrix_from_local(projections, local), omega, load,
-                                  gyroscopic)
-        force = rigid.mount_forces_local(system.axes, local, system.transforms, q)  # (sample, speed, order, n, 3)
+        _, force = rigid.direct_response(system.mass_matrix, system.axes, system.transforms, local, omega, load,
+                                         gyroscopic)  # force: (sample, speed, order, n, 3)
         peaks.append(np.sqrt((np.abs(force) ** 2).sum(axis=-1)).max(axis=1))
     by_order = np.concatenate(peaks)
     return {"peak_transmitted_force_order": by_order, "peak_transmitted_force": by_order.max(axis=1)}

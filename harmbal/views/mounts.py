@@ -169,6 +169,12 @@ class Excitation:
             return unit, None
         return unit, np.concatenate([np.zeros_like(self.moment_constant), self.moment_constant], axis=-1)
 
+    def positive(self) -> "Excitation":
+        """The orders above 0 (order 0 is the statics')."""
+        keep = self.orders > 0
+        constant = None if self.moment_constant is None else self.moment_constant[keep]
+        return Excitation(self.orders[keep], self.force[keep], self.moment[keep], constant, self.reference)
+
     def about(self, cg: np.ndarray, speeds: np.ndarray) -> np.ndarray:
         """The loads [F; M about ``cg``] (speed, order, 6) at ``speeds`` [rad/s]."""
         unit, constant = self.parts_about(cg)
@@ -246,6 +252,16 @@ class Operating:
     drive_torque: float | None
     spinning_inertia: float = 0.0
 
+    @property
+    def idle_firing_frequency(self) -> float:
+        """Idle speed × firing order [Hz]."""
+        return self.idle_speed / (2 * np.pi) * self.major_order
+
+    def gyroscopic(self, speeds: np.ndarray) -> np.ndarray:
+        """The spinning parts' gyroscopic matrix (speed, 1, 6, 6) at crank speeds (speed,): momentum
+        sense·J·ω along +x (:func:`harmbal.model.mounts.gyroscopic_matrix`), the same for every order."""
+        return rigid.gyroscopic_matrix(self.sense * self.spinning_inertia * np.asarray(speeds, dtype=float)[:, None])
+
 
 def operating(scene: Scene) -> Operating:
     """The scene's :class:`Operating` values (idle speed default: the lowest
@@ -316,7 +332,7 @@ def mounts_dataset(system: MountSystem, loads: Excitation, speeds: Speeds, attrs
     data.update(_modes(system, op, loads.orders[loads.orders > 0], np.atleast_1d(speeds.values)))
     cases = static_cases(system, loads, op)
     data.update(_statics(system, cases))
-    data.update(_response(system, loads, speeds, op.sense, op.spinning_inertia))
+    data.update(_response(system, loads, speeds, op))
     coords = {
         "dof": ("dof", list(DOF), {"long_name": "degree of freedom of the rigid powertrain at its CG"}),
         "dof_units": ("dof", ["m", "m", "m", "rad", "rad", "rad"], {"long_name": "units of each degree of freedom"}),
@@ -342,7 +358,7 @@ def mounts_dataset(system: MountSystem, loads: Excitation, speeds: Speeds, attrs
         "powertrain_mass": system.mass,
         "powertrain_cg": system.cg,
         "idle_speed": op.idle_speed,
-        "idle_firing_frequency": op.idle_speed / (2 * np.pi) * op.major_order,
+        "idle_firing_frequency": op.idle_firing_frequency,
         "firing_order": op.major_order,
         "frame": "engine frame; dof: CG translation [m] and small rotation [rad] about x (roll), y (pitch), z (yaw)",
         "products_of_inertia": "tensor elements: I_xy = -integral x y dm",
@@ -372,7 +388,7 @@ def _modes(system: MountSystem, op: Operating, orders: np.ndarray, speeds: np.nd
     energy = rigid.energy_distribution(M, shapes)
     tra = rigid.torque_roll_axis(system.inertia)
     centre, axes, torsional = rigid.elastic_centre(K)
-    firing = op.idle_speed / (2 * np.pi) * op.major_order
+    firing = op.idle_firing_frequency
     crossing = 60.0 * frequency[:, None] / orders[None, :]
     rpm = speeds * 60 / (2 * np.pi)
     crossing = np.where((crossing >= rpm.min()) & (crossing <= rpm.max()), crossing, np.nan)
@@ -436,27 +452,22 @@ def _statics(system: MountSystem, cases: dict[str, np.ndarray]) -> dict:
     }
 
 
-def _response(system: MountSystem, loads: Excitation, speeds: Speeds, sense: int, spinning_inertia: float) -> dict:
+def _response(system: MountSystem, loads: Excitation, speeds: Speeds, op: Operating) -> dict:
     """The forced response of every order > 0 at every speed."""
-    keep = loads.orders > 0
     omega = np.atleast_1d(speeds.values)
-    excitation = Excitation(loads.orders[keep], loads.force[keep], loads.moment[keep],
-                            None if loads.moment_constant is None else loads.moment_constant[keep], loads.reference)
+    excitation = loads.positive()
     frequency = omega[:, None] * excitation.orders[None, :]
-    spin = sense * spinning_inertia  # the spinning parts' momentum per unit crank speed, along +x
     if any(table is not None for table in system.tables):
-        stiffness = system.local_stiffness(frequency)  # (speed, order, n, 3)
-        q = rigid.forced_response(system.mass_matrix, rigid.dynamic_matrix(system.transforms, system.axes, stiffness),
-                                  frequency, excitation.about(system.cg, omega),
-                                  rigid.gyroscopic_matrix(spin * omega[:, None]))
-        force = rigid.mount_forces_local(system.axes, stiffness, system.transforms, q)  # (speed, order, n, 3)
+        q, force = rigid.direct_response(system.mass_matrix, system.axes, system.transforms,
+                                         system.local_stiffness(frequency), frequency,
+                                         excitation.about(system.cg, omega), op.gyroscopic(omega))
     else:  # constant matrices: one eigenbasis per order serves every speed
         q = rigid.order_response(system.mass_matrix, system.stiffness_matrix + 1j * system.loss_matrix,
-                                 system.damping_matrix, spin, excitation.orders, omega,
+                                 system.damping_matrix, op.sense * op.spinning_inertia, excitation.orders, omega,
                                  *excitation.parts_about(system.cg))
         force = rigid.constant_mount_forces(system.axes, system.transforms, system.stiffness * (1 + 1j * system.loss),
                                             system.damping, frequency, q)
-    co, counter = transverse_split(np.moveaxis(force, 1, -1), sense)  # (speed, n, order)
+    co, counter = transverse_split(np.moveaxis(force, 1, -1), op.sense)  # (speed, n, order)
     rotating = np.moveaxis(np.stack([co, counter], axis=-1), 1, 2)
     lead = speeds.lead
     squeeze = (lambda a: a) if speeds.several else (lambda a: a[0])

@@ -555,14 +555,13 @@ def _mount_monte_carlo(args, scene) -> None:
 
 
 def _mount_keys(key: str, scene) -> list[str]:
-    """``mount[*].stiffness[*]`` and the like: the key for every mount and axis a ``*`` stands for."""
-    if "*" not in key:
-        return [key]
-    mounts = [str(i) for i in range(1, len(scene.mounts) + 1)]
+    """``mount[*].stiffness[*]`` and the like: the key for every mount (``mount[*]``) and every axis
+    (``stiffness[*]``) a ``*`` stands for."""
     keys = [key]
-    for choices in (mounts, ["1", "2", "3"]):
-        keys = [k.replace("[*]", f"[{c}]", 1) for k in keys for c in (choices if "[*]" in k else [""])]
-    return [k for k in keys if "[]" not in k]
+    for part, choices in (("mount[*]", range(1, len(scene.mounts) + 1)), ("stiffness[*]", range(1, 4))):
+        if part in key:
+            keys = [k.replace(part, part.replace("*", str(c))) for k in keys for c in choices]
+    return keys
 
 
 def _design_mounts(args, scene) -> None:

@@ -174,3 +174,12 @@ def test_a_mount_monte_carlo_over_the_time_budget_is_refused(monkeypatch):
     assert estimate.seconds > 60 > budget.estimate(scene, "mounts", mount_samples=100).seconds
     with pytest.raises(hb.SceneError, match="100000 samples"):
         hb.mount_monte_carlo(scene, {"mount[1].stiffness[3]": hb.Normal("10 %")}, 100_000)
+
+
+def test_the_tolerance_wildcards_name_every_mount_and_axis():
+    from harmbal.cli import _mount_keys
+
+    scene = hb.load_scene(TRACTOR)
+    assert _mount_keys("mount[1].stiffness[*]", scene) == [f"mount[1].stiffness[{j}]" for j in (1, 2, 3)]
+    assert _mount_keys("mount[*].stiffness[2]", scene) == [f"mount[{i}].stiffness[2]" for i in (1, 2, 3, 4)]
+    assert len(_mount_keys("mount[*].stiffness[*]", scene)) == 12
